@@ -1,0 +1,44 @@
+"""Command line: ``python -m pih provenance FILE...`` (or the ``pih`` console script)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from pih.traces import read_provenance
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="pih", description=__doc__)
+    commands = parser.add_subparsers(dest="command", required=True)
+    show = commands.add_parser("provenance", help="print the provenance record of output files")
+    show.add_argument("files", nargs="+", type=Path, help="Parquet outputs (or .rrd recordings)")
+    show.add_argument("--key", help="print only this top-level key")
+    args = parser.parse_args(argv)
+
+    status = 0
+    for path in args.files:
+        try:
+            record = _provenance(path)
+        except (OSError, ValueError) as error:
+            print(f"{path}: {error}", file=sys.stderr)
+            status = 1
+            continue
+        value = record if args.key is None else record.get(args.key)
+        print(f"# {path}")
+        print(json.dumps(value, indent=2, sort_keys=True))
+    return status
+
+
+def _provenance(path: Path) -> dict:
+    if path.suffix == ".rrd":
+        from pih.recordings import read_recording_provenance
+
+        return read_recording_provenance(path)
+    return read_provenance(path)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

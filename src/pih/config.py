@@ -1,0 +1,105 @@
+"""Typed, validated configuration: nested frozen dataclasses built from plain mappings (YAML).
+
+Every section is a frozen dataclass with defaults (for use from Python) and a ``validate`` method
+for ranges. :func:`from_mapping` builds one from a mapping *strictly*: every field must be present,
+no unknown key is allowed, and types are checked, so a config file is complete and explicit. Errors
+are :class:`ConfigError` naming the dotted key (``scene.material.friction``) and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import types
+import typing
+from collections.abc import Mapping
+from typing import Any, Literal, TypeVar, get_args, get_origin
+
+T = TypeVar("T")
+
+
+class ConfigError(ValueError):
+    """A configuration value is missing, of the wrong type, or outside its allowed range."""
+
+
+def require(condition: bool, key: str, allowed: str, value: Any) -> None:
+    """Raise :class:`ConfigError` naming ``key`` unless ``condition`` holds."""
+    if not condition:
+        raise ConfigError(f"{key}: {value!r} is not allowed; expected {allowed}")
+
+
+def require_finite(key: str, value: float | tuple[float, ...]) -> None:
+    values = value if isinstance(value, tuple) else (value,)
+    require(all(math.isfinite(v) for v in values), key, "finite number(s)", value)
+
+
+def _coerce(tp: Any, value: Any, key: str) -> Any:
+    origin = get_origin(tp)
+    if dataclasses.is_dataclass(tp):
+        return from_mapping(tp, value, key)
+    if origin is Literal:
+        require(value in get_args(tp), key, f"one of {list(get_args(tp))}", value)
+        return value
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in get_args(tp) if a is not type(None)]
+        if value is None:
+            require(type(None) in get_args(tp), key, "a value (not null)", value)
+            return None
+        return _coerce(args[0], value, key)
+    if origin is tuple:
+        args = get_args(tp)
+        require(isinstance(value, (list, tuple)), key, f"a list of {len(args)} numbers", value)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_coerce(args[0], v, f"{key}[{i}]") for i, v in enumerate(value))
+        require(len(value) == len(args), key, f"a list of exactly {len(args)} values", value)
+        return tuple(_coerce(a, v, f"{key}[{i}]") for i, (a, v) in enumerate(zip(args, value)))
+    if tp is float:
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        require(ok, key, "a number", value)
+        return float(value)
+    if tp is int:
+        require(isinstance(value, int) and not isinstance(value, bool), key, "an integer", value)
+        return value
+    if tp is bool:
+        require(isinstance(value, bool), key, "true or false", value)
+        return value
+    if tp is str:
+        require(isinstance(value, str), key, "a string", value)
+        return value
+    raise TypeError(f"{key}: unsupported field type {tp!r}")
+
+
+def from_mapping(cls: type[T], data: Any, key: str = "") -> T:
+    """Build dataclass ``cls`` from ``data``; every field required, unknown keys rejected."""
+    where = key or cls.__name__
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{where}: expected a mapping of {cls.__name__} fields, got {data!r}")
+    hints = typing.get_type_hints(cls)
+    fields = [f.name for f in dataclasses.fields(cls) if f.init]
+    unknown = sorted(set(data) - set(fields))
+    if unknown:
+        raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed keys are {fields}")
+    missing = [f for f in fields if f not in data]
+    if missing:
+        raise ConfigError(f"{where}: missing key(s) {missing}")
+    prefix = f"{key}." if key else ""
+    values = {f: _coerce(hints[f], data[f], prefix + f) for f in fields}
+    obj = cls(**values)
+    validate = getattr(obj, "validate", None)
+    if validate is not None:
+        validate(prefix)
+    return obj
+
+
+def to_mapping(obj: Any) -> dict[str, Any]:
+    """Plain nested dict (tuples as lists) of a config dataclass, the inverse of from_mapping."""
+    return json.loads(json.dumps(dataclasses.asdict(obj)))
+
+
+def config_hash(obj: Any) -> str:
+    """sha256 of the canonical JSON of a config dataclass or mapping."""
+    data = to_mapping(obj) if dataclasses.is_dataclass(obj) else obj
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()

@@ -1,0 +1,134 @@
+"""Provenance records attached to every output (conventions.md, "Provenance in each Parquet file").
+
+A record says which step made a file, from which configuration, inputs, seeds and code, with which
+simulator settings and library versions. Volatile fields (time, host) are listed in
+:data:`VOLATILE_KEYS` so that re-runs can be compared on data and stable provenance only.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib.metadata
+import json
+import platform
+import subprocess
+import sys
+from collections.abc import Iterable, Mapping
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+SCHEMA_VERSION = 1
+PROVENANCE_KEY = b"pih.provenance"
+VOLATILE_KEYS = ("created_utc", "host", "code_version")
+PACKAGES = ("drake", "numpy", "pandas", "pyarrow", "rerun-sdk", "snakemake", "cma", "matplotlib")
+LIBRARY_ROOT = Path(__file__).resolve().parent
+
+
+def canonical_json(data: Any) -> str:
+    return json.dumps(data, sort_keys=True, separators=(",", ":"), default=_jsonable)
+
+
+def _jsonable(value: Any) -> Any:
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"not JSON-serialisable: {value!r}")
+
+
+def sha256_text(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def file_sha256(path: str | Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+@functools.cache
+def library_hash() -> str:
+    """sha256 over the source files of the ``pih`` package (names and contents, sorted)."""
+    digest = hashlib.sha256()
+    for path in sorted(LIBRARY_ROOT.rglob("*")):
+        if path.is_file() and path.suffix in {".py", ".json"}:
+            digest.update(str(path.relative_to(LIBRARY_ROOT)).encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+@functools.cache
+def code_version() -> str:
+    """``git describe --always --dirty`` of the checkout holding the library, else the version."""
+    try:
+        out = subprocess.run(
+            ["git", "describe", "--always", "--dirty"],
+            cwd=LIBRARY_ROOT,
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        )
+        return out.stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        from pih import __version__
+
+        return __version__
+
+
+@functools.cache
+def package_versions() -> dict[str, str]:
+    versions = {}
+    for name in PACKAGES:
+        try:
+            versions[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            versions[name] = "not installed"
+    return versions
+
+
+def run_id(step: str, point: Mapping[str, Any] | None = None) -> str:
+    """Deterministic id of a job: the step plus its sorted sweep point / wildcards."""
+    parts = [step] + [f"{k}={point[k]}" for k in sorted(point or {})]
+    return "/".join(parts)
+
+
+def record(
+    step: str,
+    *,
+    point: Mapping[str, Any] | None = None,
+    seeds: Mapping[str, int] | None = None,
+    config: Any = None,
+    inputs: Iterable[str | Path] = (),
+    simulator: Mapping[str, Any] | None = None,
+    extra: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """The provenance record of one output. ``config`` is the resolved configuration (mapping)."""
+    return {
+        "schema_version": SCHEMA_VERSION,
+        "step": step,
+        "run_id": run_id(step, point),
+        "sweep_point": dict(point or {}),
+        "seeds": dict(seeds or {}),
+        "config": config,
+        "config_sha256": sha256_text(canonical_json(config)),
+        "inputs": {str(p): file_sha256(p) for p in inputs},
+        "code_version": code_version(),
+        "library_sha256": library_hash(),
+        "packages": package_versions(),
+        "simulator": dict(simulator or {}),
+        "python": sys.version.split()[0],
+        "platform": platform.platform(),
+        "host": platform.node(),
+        "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        **dict(extra or {}),
+    }
+
+
+def stable(provenance: Mapping[str, Any]) -> dict[str, Any]:
+    """The record without volatile fields, for comparing re-runs."""
+    return {k: v for k, v in provenance.items() if k not in VOLATILE_KEYS}

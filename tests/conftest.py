@@ -1,0 +1,15 @@
+"""Shared fixtures: one Drake scene per session (building is cheap, importing pydrake is not)."""
+
+import os
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+os.environ.setdefault("RERUN", "off")
+
+import pytest
+
+from pih.scene import PegInHoleScene, SceneConfig
+
+
+@pytest.fixture(scope="session")
+def scene() -> PegInHoleScene:
+    return PegInHoleScene(SceneConfig())

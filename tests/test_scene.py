@@ -1,0 +1,153 @@
+"""Physics sanity of the planar hydroelastic peg-in-hole scene (paper §2.1–2.2)."""
+
+import numpy as np
+import pytest
+
+from pih.config import ConfigError, from_mapping, to_mapping
+from pih.frames import offset_along_axis, pose_matrix, pose_vector
+from pih.scene import PegInHoleScene, RobotTrajectory, SceneConfig, TrajectoryError, wall_profile
+
+
+def straight_line(start, stop, duration_s=1.5, hold_s=0.5, step_s=0.002) -> RobotTrajectory:
+    """Smoothstep from start to stop over duration_s, then hold."""
+    t = np.arange(0.0, duration_s + hold_s + 1e-12, step_s)
+    s = np.clip(t / duration_s, 0.0, 1.0)
+    s = 3 * s**2 - 2 * s**3
+    start, stop = np.asarray(start, float), np.asarray(stop, float)
+    return RobotTrajectory(t, start + s[:, None] * (stop - start))
+
+
+def robot_for_tip(scene: PegInHoleScene, x_m: float, tip_y_m: float) -> np.ndarray:
+    """Robot pose (at rest on P1) that puts an upright peg's tip P2 at (x, tip_y)."""
+    return scene.peg_top_from_bottom([x_m, tip_y_m, 0.0])
+
+
+def test_frames_round_trip_and_offsets():
+    q = np.array([0.01, -0.02, 0.3])
+    assert np.allclose(pose_vector(pose_matrix(q)), q)
+    top = offset_along_axis(q, 0.0225)
+    T = pose_matrix(q) @ pose_matrix([0.0, 0.0225, 0.0])
+    assert np.allclose(top, pose_vector(T))
+
+
+def test_peg_follows_robot_without_contact(scene):
+    hole_top = scene.config.hole.top_y_m
+    start = robot_for_tip(scene, -0.035, hole_top + 0.010)
+    stop = robot_for_tip(scene, -0.020, hole_top + 0.015)
+    trace = scene.rollout(straight_line(start, stop))
+    assert trace.ok, trace.reason
+    assert np.all(trace.contact_patches == 0)
+    assert np.max(np.abs(trace.contact_force)) == 0.0
+    # Quasi-static tracking: after the hold the spring is relaxed and P1 sits on R.
+    assert np.allclose(trace.q_peg_top[-1], stop, atol=2e-5)
+    assert trace.spring_energy_j[-1] < 1e-6
+    # and while moving the spring stretch stays small (mm, not cm).
+    assert np.max(np.abs(trace.q_robot[:, :2] - trace.q_peg_top[:, :2])) < 2e-3
+
+
+def test_centred_insertion_reaches_commanded_depth(scene):
+    hole = scene.config.hole
+    start = robot_for_tip(scene, hole.x_m, hole.top_y_m + 0.003)
+    target_tip_y = hole.y_m + 0.001  # 1 mm above the bottom
+    trace = scene.rollout(straight_line(start, robot_for_tip(scene, hole.x_m, target_tip_y)))
+    assert trace.ok, trace.reason
+    assert trace.q_peg_bottom[-1, 1] == pytest.approx(target_tip_y, abs=2e-5)
+    assert trace.insertion_depth_m[-1] == pytest.approx(hole.entrance_y_m - target_tip_y, abs=2e-5)
+    assert np.max(np.abs(trace.contact_force[:, :2])) < 0.05
+
+
+def test_offset_outside_chamfer_rests_on_top_surface(scene):
+    hole = scene.config.hole
+    offset = 0.005  # the chamfer captures up to W − (D − d)/2 ≈ 2.5 mm
+    start = robot_for_tip(scene, hole.x_m - offset, hole.top_y_m + 0.003)
+    stop = robot_for_tip(scene, hole.x_m - offset, hole.y_m)
+    trace = scene.rollout(straight_line(start, stop))
+    assert trace.ok, trace.reason
+    assert trace.q_peg_bottom[-1, 1] == pytest.approx(hole.top_y_m, abs=1e-4)
+    assert trace.insertion_depth_m[-1] < 0
+    # Static at the end: the contact force balances the spring.
+    spring, contact = trace.spring_force[-1], trace.contact_force[-1]
+    assert contact[1] == pytest.approx(-spring[1], rel=0.02)
+    assert contact[1] == pytest.approx(1000.0 * hole.depth_m, rel=0.02)
+    assert trace.contact_patches[-1] >= 1
+
+
+def test_chamfer_forces_grow_with_depth(scene):
+    hole = scene.config.hole
+    offset = 0.001
+    start = robot_for_tip(scene, hole.x_m - offset, hole.top_y_m + 0.001)
+    stop = robot_for_tip(scene, hole.x_m - offset, hole.top_y_m - 0.003)
+    trace = scene.rollout(straight_line(start, stop, duration_s=3.0))
+    assert trace.ok, trace.reason
+    z_c = offset - (hole.diameter_m - scene.config.peg.diameter_m) / 2  # eps0' tan(45°)
+    on_chamfer = (trace.insertion_depth_m > -z_c + 1e-4) & (trace.insertion_depth_m < -3e-4)
+    depth = trace.insertion_depth_m[on_chamfer]
+    fx, fy = trace.contact_force[on_chamfer, 0], trace.contact_force[on_chamfer, 1]
+    assert on_chamfer.sum() > 20
+    # The chamfer pushes the peg (on the left) toward the axis (+x) and up; both grow with depth.
+    assert np.all(fx > 0) and np.all(fy > 0)
+    assert np.corrcoef(depth, fx)[0, 1] > 0.9
+    assert np.corrcoef(depth, fy)[0, 1] > 0.9
+
+
+def test_wall_profile_is_convex_with_fillet():
+    profile = wall_profile(SceneConfig().hole)
+    edges = np.diff(np.vstack([profile, profile[:1]]), axis=0)
+    cross = edges[:, 0] * np.roll(edges[:, 1], -1) - edges[:, 1] * np.roll(edges[:, 0], -1)
+    assert np.all(cross > -1e-15), "wall outline must be convex and counter-clockwise"
+    assert len(profile) == 4 + SceneConfig().hole.fillet_facets + 1
+
+
+def test_config_round_trip_and_strict_keys():
+    config = SceneConfig()
+    assert from_mapping(SceneConfig, to_mapping(config)) == config
+    data = to_mapping(config)
+    del data["material"]["friction"]
+    with pytest.raises(ConfigError, match=r"material: missing key\(s\) \['friction'\]"):
+        from_mapping(SceneConfig, data, "scene")
+
+
+@pytest.mark.parametrize(
+    ("section", "key", "value", "message"),
+    [
+        ("spring", "stiffness", [-1000.0, 1000.0, 1.0], r"scene\.spring\.stiffness"),
+        ("peg", "diameter_m", 0.013, r"scene\.peg\.diameter_m.*narrower than the hole"),
+        ("solver", "time_step_s", 0.0, r"scene\.solver\.time_step_s.*> 0"),
+        ("hole", "chamfer_width_m", -0.001, r"scene\.hole\.chamfer_width_m.*>= 0"),
+        ("material", "friction", "high", r"scene\.material\.friction.*a number"),
+        ("solver", "contact_model", "magic", r"scene\.solver\.contact_model.*one of"),
+        ("peg", "colour", "red", r"scene\.peg: unknown key"),
+    ],
+)
+def test_bad_config_is_rejected_naming_the_key(section, key, value, message):
+    data = to_mapping(SceneConfig())
+    data[section][key] = value
+    with pytest.raises(ConfigError, match=message):
+        from_mapping(SceneConfig, data, "scene")
+
+
+@pytest.mark.parametrize(
+    ("times", "poses", "message"),
+    [
+        ([0.0, 0.1, 0.1], np.zeros((3, 3)), "strictly increasing"),
+        ([0.0, 0.1], np.zeros((2, 2)), r"shape \(2, 3\)"),
+        ([0.0, 0.1], np.array([[0, 0, 0], [np.nan, 0, 0]]), "NaN"),
+        ([0.5, 1.0], np.zeros((2, 3)), "start at 0"),
+        ([0.0], np.zeros((1, 3)), ">= 2 samples"),
+    ],
+)
+def test_bad_trajectory_is_rejected(times, poses, message):
+    with pytest.raises(TrajectoryError, match=message):
+        RobotTrajectory(np.asarray(times, float), np.asarray(poses, float))
+
+
+def test_divergence_is_data_not_an_exception():
+    strict = PegInHoleScene(SceneConfig().replace(solver__max_contact_force_n=1.0))
+    hole = strict.config.hole
+    start = robot_for_tip(strict, hole.x_m - 0.005, hole.top_y_m + 0.003)
+    trace = strict.rollout(straight_line(start, robot_for_tip(strict, hole.x_m - 0.005, hole.y_m)))
+    assert trace.status == "diverged"
+    assert "solver.max_contact_force_n" in trace.reason
+    # The trace stops before the offending sample and every kept force is within the limit.
+    assert 0 < len(trace) < 1001
+    assert np.all(np.hypot(*trace.contact_force[:, :2].T) <= 1.0)

@@ -1,0 +1,67 @@
+"""Traces and tables round-trip through Parquet with units and provenance intact."""
+
+import json
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from pih import provenance
+from pih.__main__ import main
+from pih.scene import RobotTrajectory
+from pih.traces import TRACE_COLUMNS, read_provenance, read_trace, read_units, write_trace
+
+
+@pytest.fixture(scope="module")
+def trace(scene):
+    t = np.arange(0.0, 0.4, 0.002)
+    q0 = scene.peg_top_from_bottom([-0.001, scene.config.hole.top_y_m + 0.0005, 0.0])
+    poses = q0 + np.outer(t, [0.0, -0.005, 0.0])
+    return scene.rollout(RobotTrajectory(t, poses))
+
+
+def test_trace_round_trip_with_provenance(tmp_path, trace, scene, capsys):
+    record = provenance.record(
+        "unit_test",
+        point={"offset_mm": 1.0},
+        seeds={"noise": 7},
+        config={"a": 1},
+        simulator=scene.config.simulator_settings(),
+    )
+    path = tmp_path / "trace.parquet"
+    write_trace(trace, path, record)
+    back = read_trace(path)
+    for name in ("time_s", "q_robot", "q_peg_bottom", "contact_force", "contact_patches", "spring_energy_j"):
+        assert np.array_equal(getattr(back, name), getattr(trace, name)), name
+    assert (back.status, back.reason) == (trace.status, trace.reason)
+    stored = read_provenance(path)
+    assert stored == json.loads(json.dumps(record))
+    assert stored["run_id"] == "unit_test/offset_mm=1.0"
+    assert stored["simulator"]["discrete_contact_approximation"] == "tamsi"
+    assert stored["packages"]["drake"] == "1.51.1"
+    units = read_units(path)
+    assert units["contact_fx_n"] == "N" and units["spring_energy_j"] == "J"
+    assert set(units) == set(TRACE_COLUMNS)
+    # pandas' own schema metadata survives next to ours.
+    assert b"pandas" in pq.read_schema(path).metadata
+    assert main(["provenance", str(path), "--key", "seeds"]) == 0
+    assert '"noise": 7' in capsys.readouterr().out
+
+
+def test_failed_write_leaves_existing_file_untouched(tmp_path, trace):
+    path = tmp_path / "trace.parquet"
+    write_trace(trace, path, provenance.record("first"))
+    before = path.read_bytes()
+    with pytest.raises(TypeError):
+        write_trace(trace, path, {"not_serialisable": object()})
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["trace.parquet"]
+
+
+def test_provenance_cli_reports_missing_record(tmp_path, capsys):
+    import pandas as pd
+
+    path = tmp_path / "plain.parquet"
+    pd.DataFrame({"a": [1]}).to_parquet(path)
+    assert main(["provenance", str(path)]) == 1
+    assert "no pih.provenance record" in capsys.readouterr().err
