@@ -151,3 +151,19 @@ def test_divergence_is_data_not_an_exception():
     # The trace stops before the offending sample and every kept force is within the limit.
     assert 0 < len(trace) < 1001
     assert np.all(np.hypot(*trace.contact_force[:, :2].T) <= 1.0)
+
+
+def test_penetration_depth_of_peg_corners(scene):
+    hole = scene.config.hole
+    upright_in_hole = [hole.x_m, hole.y_m + 0.001 + scene.config.peg.length_m / 2, 0.0]
+    assert scene.penetration_depth(upright_in_hole)[0] == 0.0
+    into_right_wall = [hole.x_m + 0.002, hole.y_m + 0.005 + scene.config.peg.length_m / 2, 0.0]
+    expected = 0.002 - (hole.diameter_m - scene.config.peg.diameter_m) / 2
+    assert scene.penetration_depth(into_right_wall)[0] == pytest.approx(expected, rel=1e-6)
+    into_left_wall = [hole.x_m - 0.003, hole.y_m + 0.005 + scene.config.peg.length_m / 2, 0.0]
+    assert scene.penetration_depth(into_left_wall)[0] == pytest.approx(expected + 0.001, rel=1e-6)
+    below_bottom = [hole.x_m, hole.y_m - 0.0007 + scene.config.peg.length_m / 2, 0.0]
+    assert scene.penetration_depth(below_bottom)[0] == pytest.approx(0.0007, rel=1e-6)
+    # A tilted peg whose side cuts through the chamfer edge: its corners are clear, the edge is not.
+    tilted = [hole.x_m, hole.y_m + 0.005 + scene.config.peg.length_m / 2, -0.2]
+    assert scene.penetration_depth(tilted)[0] > 2e-4

@@ -16,7 +16,13 @@ def main(argv: list[str] | None = None) -> int:
     show = commands.add_parser("provenance", help="print the provenance record of output files")
     show.add_argument("files", nargs="+", type=Path, help="Parquet outputs (or .rrd recordings)")
     show.add_argument("--key", help="print only this top-level key")
+    commands.add_parser("schema", help="print the JSON schema of config/config.yaml")
     args = parser.parse_args(argv)
+    if args.command == "schema":
+        from pih.workflow import config_schema
+
+        print(json.dumps(config_schema(), indent=2))
+        return 0
 
     status = 0
     for path in args.files:

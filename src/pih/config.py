@@ -38,7 +38,7 @@ def require_finite(key: str, value: float | tuple[float, ...]) -> None:
 def _coerce(tp: Any, value: Any, key: str) -> Any:
     origin = get_origin(tp)
     if dataclasses.is_dataclass(tp):
-        return from_mapping(tp, value, key)
+        return _build(tp, value, key)
     if origin is Literal:
         require(value in get_args(tp), key, f"one of {list(get_args(tp))}", value)
         return value
@@ -72,7 +72,16 @@ def _coerce(tp: Any, value: Any, key: str) -> Any:
 
 
 def from_mapping(cls: type[T], data: Any, key: str = "") -> T:
-    """Build dataclass ``cls`` from ``data``; every field required, unknown keys rejected."""
+    """Build dataclass ``cls`` from ``data`` and validate it; every field required, unknown keys
+    rejected. ``key`` is the dotted path of ``data`` in the whole configuration, for messages."""
+    obj = _build(cls, data, key)
+    validate = getattr(obj, "validate", None)
+    if validate is not None:
+        validate(f"{key}." if key else "")
+    return obj
+
+
+def _build(cls: type[T], data: Any, key: str) -> T:
     where = key or cls.__name__
     if not isinstance(data, Mapping):
         raise ConfigError(f"{where}: expected a mapping of {cls.__name__} fields, got {data!r}")
@@ -85,12 +94,7 @@ def from_mapping(cls: type[T], data: Any, key: str = "") -> T:
     if missing:
         raise ConfigError(f"{where}: missing key(s) {missing}")
     prefix = f"{key}." if key else ""
-    values = {f: _coerce(hints[f], data[f], prefix + f) for f in fields}
-    obj = cls(**values)
-    validate = getattr(obj, "validate", None)
-    if validate is not None:
-        validate(prefix)
-    return obj
+    return cls(**{f: _coerce(hints[f], data[f], prefix + f) for f in fields})
 
 
 def to_mapping(obj: Any) -> dict[str, Any]:
@@ -103,3 +107,30 @@ def config_hash(obj: Any) -> str:
     data = to_mapping(obj) if dataclasses.is_dataclass(obj) else obj
     text = json.dumps(data, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+def json_schema(tp: Any) -> dict[str, Any]:
+    """JSON schema (2020-12) of a config dataclass or field type: types, required keys, enums.
+    Ranges are checked by each dataclass's ``validate``."""
+    origin = get_origin(tp)
+    if dataclasses.is_dataclass(tp):
+        hints = typing.get_type_hints(tp)
+        names = [f.name for f in dataclasses.fields(tp) if f.init]
+        return {
+            "type": "object",
+            "description": (tp.__doc__ or tp.__name__).strip().splitlines()[0],
+            "properties": {name: json_schema(hints[name]) for name in names},
+            "required": names,
+            "additionalProperties": False,
+        }
+    if origin is Literal:
+        return {"enum": list(get_args(tp))}
+    if origin is tuple:
+        args = get_args(tp)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return {"type": "array", "items": json_schema(args[0])}
+        return {"type": "array", "prefixItems": [json_schema(a) for a in args], "minItems": len(args), "maxItems": len(args)}
+    simple = {float: "number", int: "integer", bool: "boolean", str: "string"}
+    if tp in simple:
+        return {"type": simple[tp]}
+    raise TypeError(f"no JSON schema for {tp!r}")

@@ -195,13 +195,18 @@ class SolverConfig:
     max_contact_force_n: float = 1.0e3
     # ...or whose peg centre leaves a disc of this radius around the hole frame.
     max_distance_from_hole_m: float = 0.2
+    # ...or whose peg corner lies deeper than this inside a hole wall or the bottom. Hydroelastic
+    # contact is compliant (µm penetrations at 200 GPa); a peg pushed past its pressure field's
+    # medial axis is expelled through the wall instead, which shows up as tenths of millimetres
+    # and more. 0.2 mm is 12× the per-side clearance.
+    max_penetration_m: float = 2.0e-4
     # How often (simulated time) the running rollout is checked for divergence.
     check_interval_s: float = 0.1
     # Count contact patches carrying force each step (a Python callback: ≈10–20 % slower).
     log_contact_patches: bool = True
 
     def validate(self, prefix: str = "") -> None:
-        for name in ("time_step_s", "max_contact_force_n", "max_distance_from_hole_m", "check_interval_s"):
+        for name in ("time_step_s", "max_contact_force_n", "max_distance_from_hole_m", "max_penetration_m", "check_interval_s"):
             value = getattr(self, name)
             require(math.isfinite(value) and value > 0, prefix + name, "a finite value > 0", value)
 
@@ -427,6 +432,10 @@ class PegInHoleScene:
         self.config = config or SceneConfig()
         self.config.validate()
         self._build()
+        profile = self._wall_profile = wall_profile(self.config.hole)
+        edges = np.roll(profile, -1, axis=0) - profile
+        self._wall_normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / np.hypot(*edges.T)[:, None]
+        self._wall_offsets = np.sum(self._wall_normals * profile, axis=1)
 
     # -- construction -------------------------------------------------------------------------
     def _build(self) -> None:
@@ -558,6 +567,26 @@ class PegInHoleScene:
         """Whitney's ℓ: depth of P2 below the hole entrance (bottom of the chamfer)."""
         return self.config.hole.entrance_y_m - np.asarray(q_bottom, dtype=float)[..., 1]
 
+    def penetration_depth(self, q_peg: ArrayLike) -> NDArray[np.float64]:
+        """Deepest penetration (m, ≥ 0) of the peg's corners into the walls or the bottom, per pose."""
+        q = np.atleast_2d(np.asarray(q_peg, dtype=float))
+        half = np.array([self.config.peg.diameter_m, self.config.peg.length_m]) / 2
+        c, s = np.cos(q[:, 2:3]), np.sin(q[:, 2:3])
+        signs = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * half  # (4, 2) in the peg frame
+        corners = np.stack(
+            [q[:, 0:1] + c * signs[:, 0] - s * signs[:, 1], q[:, 1:2] + s * signs[:, 0] + c * signs[:, 1]], axis=-1
+        ) - self.hole_pose[:2]  # (n, 4, 2) in the hole frame
+        depth = np.maximum(0.0, -corners[..., 1])  # below the hole bottom
+        for mirror in (1.0, -1.0):  # right wall, left wall (its mirror image)
+            depth = np.maximum(depth, _depth_inside(self._wall_normals, self._wall_offsets, corners * [mirror, 1.0]))
+        # ...and the walls' vertices (chamfer edge, fillet) inside the peg rectangle.
+        vertices = np.vstack([self._wall_profile, self._wall_profile * [-1.0, 1.0]]) + self.hole_pose[:2]
+        rel = vertices[None, :, :] - q[:, None, :2]  # (n, m, 2) world offsets from the peg centre
+        along_x = np.abs(c * rel[..., 0] + s * rel[..., 1])
+        along_y = np.abs(-s * rel[..., 0] + c * rel[..., 1])
+        inside = np.maximum(0.0, np.minimum(half[0] - along_x, half[1] - along_y))
+        return np.maximum(depth.max(axis=1), inside.max(axis=1))
+
     @property
     def hole_pose(self) -> NDArray[np.float64]:
         """True hole frame H (bottom centre), q_H = (x_H, y_H, 0)."""
@@ -623,7 +652,8 @@ class PegInHoleScene:
         finite = np.all(np.isfinite(state), axis=1) & np.all(np.isfinite(generalized), axis=1)
         too_strong = np.hypot(contact[:, 0], contact[:, 1]) > cfg.solver.max_contact_force_n
         too_far = np.hypot(*(q_peg[:, :2] - self.hole_pose[:2]).T) > cfg.solver.max_distance_from_hole_m
-        bad = ~finite | too_strong | too_far
+        too_deep = self.penetration_depth(q_peg) > cfg.solver.max_penetration_m
+        bad = ~finite | too_strong | too_far | too_deep
         n = times.size
         if np.any(bad):
             first = int(np.argmax(bad))
@@ -635,6 +665,11 @@ class PegInHoleScene:
                         f"contact force {np.hypot(*contact[first, :2]):.3g} N exceeds "
                         f"solver.max_contact_force_n = {cfg.solver.max_contact_force_n:g} N "
                         f"at t = {times[first]:.4f} s"
+                    )
+                elif too_deep[first]:
+                    reason = (
+                        f"peg penetrated the hole by {1e3 * self.penetration_depth(q_peg[first:first + 1])[0]:.2f} mm "
+                        f"(> solver.max_penetration_m = {cfg.solver.max_penetration_m:g} m) at t = {times[first]:.4f} s"
                     )
                 else:
                     reason = (
@@ -667,6 +702,12 @@ class PegInHoleScene:
         when, count = np.array(self._patch_counts).T
         index = np.clip(np.searchsorted(when, times - 1e-9), 0, when.size - 1)
         return count[index].astype(np.int64)
+
+
+def _depth_inside(normals: NDArray, offsets: NDArray, points: NDArray) -> NDArray[np.float64]:
+    """Depth of points inside a convex polygon given by outward edge normals n and offsets b
+    (inside: n·p < b for every edge): min over edges of b − n·p, clipped at 0."""
+    return np.maximum(0.0, np.min(offsets - points @ normals.T, axis=-1))
 
 
 def _patches_with_force(results) -> int:

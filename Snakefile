@@ -1,0 +1,24 @@
+# pih: hydroelastic peg-in-hole study (Yang et al., Machines 2023), reproduced and extended.
+#   snakemake -j2                                  full study, config/config.yaml
+#   snakemake -j2 --configfile config/smoke.yaml   smoke study (CI)
+#   snakemake --report results/report.html         self-contained report
+
+
+from snakemake.utils import min_version
+
+min_version("9.0")
+
+
+configfile: "config/config.yaml"
+
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/validation.smk"
+include: "workflow/rules/planning.smk"
+
+
+rule all:
+    input:
+        rules.validation_compare.output,
+        rules.planning_aggregate.output,
+    default_target: True

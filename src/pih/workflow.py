@@ -1,0 +1,98 @@
+"""The study's configuration file: its JSON schema and its typed sections.
+
+``config/config.yaml`` has sections ``scene``, ``validation``, ``planner``, ``sweep`` and
+``figure_point``; :func:`config_schema` is what ``workflow/schemas/config.schema.json`` holds
+(``python -m pih schema`` regenerates it; a test checks they agree).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager, redirect_stderr, redirect_stdout
+from dataclasses import dataclass, field
+from typing import Any
+
+from pih import provenance
+from pih.config import ConfigError, from_mapping, json_schema
+from pih.planner import PlannerConfig
+from pih.scene import SceneConfig
+from pih.study import override
+from pih.validation import ValidationConfig
+
+
+@dataclass(frozen=True)
+class ValidationSection:
+    """The hydroelastic-vs-Whitney validation runs."""
+
+    offsets_m: tuple[float, ...] = (0.0005, 0.001, 0.0015, 0.002)
+    contact_models: tuple[str, ...] = ("hydroelastic", "point")
+    experiment: ValidationConfig = field(default_factory=ValidationConfig)
+
+    def validate(self, prefix: str = "") -> None:
+        if not self.offsets_m or any(not (0 < o < 0.01) for o in self.offsets_m):
+            raise ConfigError(f"{prefix}offsets_m: {self.offsets_m!r}; expected lateral offsets in (0, 0.01) m")
+        allowed = ("hydroelastic", "hydroelastic_with_fallback", "point")
+        bad = [m for m in self.contact_models if m not in allowed]
+        if not self.contact_models or bad:
+            raise ConfigError(f"{prefix}contact_models: {list(self.contact_models)!r}; expected a non-empty list of {list(allowed)}")
+        self.experiment.validate(prefix + "experiment.")
+
+
+def config_schema() -> dict[str, Any]:
+    sweep_levels = {"type": "array", "minItems": 1, "items": {"type": ["number", "string", "integer", "boolean"]}}
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": "pih study configuration",
+        "type": "object",
+        "properties": {
+            "scene": json_schema(SceneConfig),
+            "validation": json_schema(ValidationSection),
+            "planner": json_schema(PlannerConfig),
+            "sweep": {
+                "type": "object",
+                "description": "dotted config path -> list of levels; planning runs are the Cartesian product",
+                "propertyNames": {"pattern": r"^(scene|planner)(\.[A-Za-z_][A-Za-z0-9_]*)+$"},
+                "additionalProperties": sweep_levels,
+                "minProperties": 1,
+            },
+            "figure_point": {
+                "type": "object",
+                "description": "levels of the sweep point whose best paths Fig. 8 shows (per method)",
+                "additionalProperties": {"type": ["number", "string", "integer", "boolean"]},
+            },
+        },
+        "required": ["scene", "validation", "planner", "sweep", "figure_point"],
+        "additionalProperties": False,
+    }
+
+
+def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> None:
+    """Validate every section and every sweep point strictly, before any job runs."""
+    from_mapping(ValidationSection, config["validation"], "validation")
+    names = [path.rsplit(".", 1)[-1] for path in config["sweep"]]
+    duplicated = sorted({n for n in names if names.count(n) > 1})
+    if duplicated:
+        raise ConfigError(f"sweep: keys must end in distinct names (they name directories); repeated: {duplicated}")
+    for point in points or [{}]:
+        data = override(config, point)
+        from_mapping(SceneConfig, data["scene"], "scene")
+        from_mapping(PlannerConfig, data["planner"], "planner")
+    unknown = sorted(set(config["figure_point"]) - set(config["sweep"]))
+    if unknown:
+        raise ConfigError(f"figure_point: {unknown} are not sweep keys ({sorted(config['sweep'])})")
+
+
+@contextmanager
+def logged(path: str) -> Iterator[None]:
+    """Send a job's stdout/stderr (and Python warnings) to its log file."""
+    with open(path, "w") as log, redirect_stdout(log), redirect_stderr(log):
+        logging.basicConfig(stream=log, level=logging.INFO, force=True)
+        logging.captureWarnings(True)
+        yield
+
+
+def job_provenance(smk: Any, step: str, *, point: Mapping[str, Any] | None = None, **fields: Any) -> dict[str, Any]:
+    """Provenance of a Snakemake job: the step, its wildcards/sweep point and input hashes."""
+    wildcards = {k: v for k, v in dict(smk.wildcards).items()}
+    return provenance.record(step, point=point if point is not None else wildcards, inputs=list(smk.input), **fields)

@@ -1,0 +1,53 @@
+import itertools
+
+import pandas as pd
+from snakemake.utils import Paramspace, validate
+
+from pih.provenance import library_hash
+from pih.workflow import check_study
+
+# Stop before any job runs if the config is malformed (schema) or out of range (library).
+validate(config, "../schemas/config.schema.json")
+
+# Sweep: each key a dotted config path, each value its levels; directories are named by the
+# last path component ("start_x_m~-0.035/method~bilevel/seed~0").
+SWEEP_PATHS = {path.rsplit(".", 1)[-1]: path for path in config["sweep"]}
+PLANNING = Paramspace(
+    pd.DataFrame(
+        list(itertools.product(*config["sweep"].values())), columns=list(SWEEP_PATHS)
+    ),
+    filename_params="*",
+    param_sep="~",
+)
+
+
+def sweep_point(wildcards):
+    """The dotted-path overrides of one planning job."""
+    return {SWEEP_PATHS[k]: v for k, v in PLANNING.instance(wildcards).items()}
+
+
+check_study(
+    config,
+    [
+        {SWEEP_PATHS[k]: v for k, v in row.items()}
+        for row in PLANNING.dataframe.to_dict("records")
+    ],
+)
+
+# Library edits re-run the jobs whose code changed (Snakemake does not track imports).
+LIBRARY_HASH = library_hash()
+
+VALIDATION_OFFSETS = config["validation"]["offsets_m"]
+CONTACT_MODELS = config["validation"]["contact_models"]
+FIGURE_POINTS = [
+    pattern
+    for pattern, row in zip(
+        PLANNING.instance_patterns, PLANNING.dataframe.to_dict("records")
+    )
+    if all(row[path.rsplit(".", 1)[-1]] == level for path, level in config["figure_point"].items())
+]
+
+
+wildcard_constraints:
+    offset=r"[0-9.e+-]+",
+    model=r"[a-z_]+",

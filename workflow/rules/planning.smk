@@ -1,0 +1,74 @@
+rule plan:
+    output:
+        rollouts=f"results/planning/{PLANNING.wildcard_pattern}/rollouts.parquet",
+        best_paths=f"results/planning/{PLANNING.wildcard_pattern}/best_paths.parquet",
+        recording=f"results/planning/{PLANNING.wildcard_pattern}/run.rrd",
+    params:
+        scene=config["scene"],
+        planner=config["planner"],
+        point=sweep_point,
+        library=LIBRARY_HASH,
+    log:
+        f"logs/planning/{PLANNING.wildcard_pattern}.log",
+    benchmark:
+        f"benchmarks/planning/{PLANNING.wildcard_pattern}.tsv"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=30,
+    group:
+        "planning"
+    conda:
+        "../envs/pih.yaml"
+    script:
+        "../scripts/plan.py"
+
+
+rule planning_aggregate:
+    input:
+        rollouts=expand(
+            "results/planning/{point}/rollouts.parquet", point=PLANNING.instance_patterns
+        ),
+        best_paths=expand(
+            "results/planning/{point}/best_paths.parquet", point=FIGURE_POINTS
+        ),
+    output:
+        runs="results/planning/summary/runs.parquet",
+        bands="results/planning/summary/cost_bands.parquet",
+        success="results/planning/summary/success.parquet",
+        success_markdown=report(
+            "results/planning/summary/success.md",
+            caption="../report/success.rst",
+            category="Planning",
+        ),
+        success_csv="results/planning/summary/success.csv",
+        fig_bands=report(
+            "results/planning/summary/fig9_cost_bands.png",
+            caption="../report/fig9.rst",
+            category="Planning",
+        ),
+        fig_bands_pdf="results/planning/summary/fig9_cost_bands.pdf",
+        fig_paths=report(
+            expand(
+                "results/planning/summary/fig8_best_paths/{point}.png",
+                point=FIGURE_POINTS,
+            ),
+            caption="../report/fig8.rst",
+            category="Planning",
+        ),
+    params:
+        sweep=config["sweep"],
+        scene=config["scene"],
+        figure_points=FIGURE_POINTS,
+        library=LIBRARY_HASH,
+    log:
+        "logs/planning/aggregate.log",
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    localrule: True
+    conda:
+        "../envs/pih.yaml"
+    script:
+        "../scripts/planning_aggregate.py"

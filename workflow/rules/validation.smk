@@ -1,0 +1,101 @@
+rule whitney_curve:
+    output:
+        curve="results/whitney/offset_m~{offset}.parquet",
+    params:
+        scene=config["scene"],
+        validation=config["validation"],
+        library=LIBRARY_HASH,
+    log:
+        "logs/whitney/offset_m~{offset}.log",
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    conda:
+        "../envs/pih.yaml"
+    script:
+        "../scripts/whitney_curve.py"
+
+
+rule validation_run:
+    output:
+        trace="results/validation/{model}/offset_m~{offset}.parquet",
+        recording="results/validation/{model}/offset_m~{offset}.rrd",
+    params:
+        scene=config["scene"],
+        validation=config["validation"],
+        library=LIBRARY_HASH,
+    log:
+        "logs/validation/{model}/offset_m~{offset}.log",
+    benchmark:
+        "benchmarks/validation/{model}/offset_m~{offset}.tsv"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=15,
+    conda:
+        "../envs/pih.yaml"
+    script:
+        "../scripts/validation_run.py"
+
+
+rule validation_compare:
+    input:
+        traces=expand(
+            "results/validation/{model}/offset_m~{offset}.parquet",
+            model=CONTACT_MODELS,
+            offset=VALIDATION_OFFSETS,
+        ),
+        curves=expand("results/whitney/offset_m~{offset}.parquet", offset=VALIDATION_OFFSETS),
+    output:
+        table="results/validation/comparison.parquet",
+        markdown=report(
+            "results/validation/comparison.md",
+            caption="../report/comparison.rst",
+            category="Validation",
+        ),
+        csv="results/validation/comparison.csv",
+        fig_fx=report(
+            "results/validation/fig4_fx_vs_depth.png",
+            caption="../report/fig4.rst",
+            category="Validation",
+        ),
+        fig_fz=report(
+            "results/validation/figA1_fz_vs_depth.png",
+            caption="../report/figA1.rst",
+            category="Validation",
+        ),
+        fig_theta=report(
+            "results/validation/figA2_angle_vs_depth.png",
+            caption="../report/figA2.rst",
+            category="Validation",
+        ),
+        fig_scatter=report(
+            "results/validation/fig5_sim_vs_theory.png",
+            caption="../report/fig5.rst",
+            category="Validation",
+        ),
+        pdfs=expand(
+            "results/validation/{name}.pdf",
+            name=[
+                "fig4_fx_vs_depth",
+                "figA1_fz_vs_depth",
+                "figA2_angle_vs_depth",
+                "fig5_sim_vs_theory",
+            ],
+        ),
+    params:
+        scene=config["scene"],
+        validation=config["validation"],
+        library=LIBRARY_HASH,
+    log:
+        "logs/validation/compare.log",
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    localrule: True
+    conda:
+        "../envs/pih.yaml"
+    script:
+        "../scripts/validation_compare.py"
