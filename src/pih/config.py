@@ -116,9 +116,11 @@ def json_schema(tp: Any) -> dict[str, Any]:
     if dataclasses.is_dataclass(tp):
         hints = typing.get_type_hints(tp)
         names = [f.name for f in dataclasses.fields(tp) if f.init]
+        doc = (tp.__doc__ or "").strip()
+        generated = doc.startswith(f"{tp.__name__}(")  # dataclass's own signature docstring
         return {
             "type": "object",
-            "description": (tp.__doc__ or tp.__name__).strip().splitlines()[0],
+            "description": tp.__name__ if generated or not doc else doc.splitlines()[0],
             "properties": {name: json_schema(hints[name]) for name in names},
             "required": names,
             "additionalProperties": False,

@@ -201,7 +201,7 @@ class SolverConfig:
     # and more. 0.2 mm is 12× the per-side clearance.
     max_penetration_m: float = 2.0e-4
     # How often (simulated time) the running rollout is checked for divergence.
-    check_interval_s: float = 0.1
+    check_interval_s: float = 0.25
     # Count contact patches carrying force each step (a Python callback: ≈10–20 % slower).
     log_contact_patches: bool = True
 

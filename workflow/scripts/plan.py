@@ -2,7 +2,6 @@
 
 from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS, Planner
 from pih.recordings import record_planning
-from pih.scene import PegInHoleScene
 from pih.study import resolve
 from pih.traces import write_table
 from pih.workflow import job_provenance, logged
@@ -10,7 +9,7 @@ from pih.workflow import job_provenance, logged
 with logged(snakemake.log[0]):
     point = dict(snakemake.params.point)
     scene_config, planner_config = resolve({"scene": snakemake.params.scene, "planner": snakemake.params.planner}, point)
-    planner = Planner(PegInHoleScene(scene_config), planner_config)
+    planner = Planner.from_configs(scene_config, planner_config)
     record = planner.run(progress=lambda i, cost, ok: print(f"iteration {i}: best J_inn {cost:.4g}{' (success)' if ok else ''}", flush=True))
     provenance = job_provenance(
         snakemake,

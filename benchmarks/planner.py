@@ -1,0 +1,41 @@
+"""Benchmark: seconds per planning iteration and per full run (issue 4).
+
+Runs Algorithm 1 with the default configuration (paper Table 4: 50 iterations × 10 rollouts,
+start x_P = −0.035 m) in one process and prints wall-clock figures.
+
+    python benchmarks/planner.py [--iterations 50] [--method bilevel] [--seed 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from pih.planner import Planner, PlannerConfig, replace
+from pih.scene import SceneConfig
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--iterations", type=int, default=PlannerConfig().iterations)
+    parser.add_argument("--method", default="bilevel", choices=["one_level", "bilevel"])
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+
+    config = replace(PlannerConfig(), iterations=args.iterations, method=args.method, seed=args.seed)
+    started = time.perf_counter()
+    planner = Planner.from_configs(SceneConfig(), config)
+    setup = time.perf_counter() - started
+    record = planner.run()
+    rollouts = len(record.rollouts)
+    print(
+        f"{args.method}, {args.iterations} iterations x {config.optimizer.population_size} rollouts: "
+        f"{record.seconds:.1f} s per run ({record.seconds / args.iterations:.2f} s per iteration, "
+        f"{1000 * record.rollout_seconds / rollouts:.0f} ms per rollout incl. DMP and costs; "
+        f"setup {1000 * setup:.0f} ms); success iteration {record.success_iteration}; "
+        f"{(record.rollouts['status'] != 'ok').sum()} of {rollouts} rollouts diverged"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,190 @@
+"""The Snakemake study: config schema, sweeps from config, and an end-to-end smoke run.
+
+Each workflow test runs in a copy of the workflow in a temporary directory, so the checkout's
+own results/ are never touched.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+import yaml
+
+from pih.provenance import stable
+from pih.traces import read_provenance
+from pih.workflow import config_schema
+
+ROOT = Path(__file__).resolve().parents[1]
+SMOKE = yaml.safe_load((ROOT / "config" / "smoke.yaml").read_text())
+
+
+def copy_workflow(target: Path) -> Path:
+    for name in ("Snakefile", "workflow", "config", "profiles"):
+        source = ROOT / name
+        if source.is_dir():
+            shutil.copytree(source, target / name)
+        else:
+            shutil.copy(source, target / name)
+    return target
+
+
+def snakemake(workdir: Path, *args: str, config: dict | None = None, check: bool = True) -> subprocess.CompletedProcess:
+    command = ["snakemake", "--cores", "2"]
+    if config is not None:
+        (workdir / "test-config.yaml").write_text(yaml.safe_dump(config))
+        command += ["--configfile", "test-config.yaml"]
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "RERUN": "off"}
+    result = subprocess.run(command + list(args), cwd=workdir, capture_output=True, text=True, env=env)
+    if check and result.returncode != 0:
+        raise AssertionError(f"snakemake {' '.join(args)} failed:\n{result.stdout[-3000:]}\n{result.stderr[-5000:]}")
+    return result
+
+
+def planned_jobs(result: subprocess.CompletedProcess) -> dict[str, int]:
+    """Job counts per rule from a dry run's stats table."""
+    counts, table = {}, False
+    for line in (result.stdout + result.stderr).splitlines():
+        parts = line.split()
+        if parts[:2] == ["job", "count"]:
+            table = True
+        elif table and len(parts) == 2 and parts[1].isdigit():
+            counts[parts[0]] = int(parts[1])
+        elif table and counts and not parts:
+            break
+    return counts
+
+
+def test_committed_schema_matches_the_code():
+    committed = json.loads((ROOT / "workflow" / "schemas" / "config.schema.json").read_text())
+    assert committed == config_schema(), "run `python -m pih schema > workflow/schemas/config.schema.json`"
+
+
+def test_default_config_dry_run_lists_the_full_study(tmp_path):
+    work = copy_workflow(tmp_path)
+    jobs = planned_jobs(snakemake(work, "-n"))
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    n_points = 1
+    for levels in config["sweep"].values():
+        n_points *= len(levels)
+    assert jobs["plan"] == n_points == 11 * 2 * 3
+    assert jobs["validation_run"] == 4 * 2
+    assert jobs["whitney_curve"] == 4
+
+
+def test_new_sweep_dimension_is_a_config_edit(tmp_path):
+    work = copy_workflow(tmp_path)
+    config = json.loads(json.dumps(SMOKE))
+    config["sweep"]["planner.sensing.bias_m"] = [0.0, 0.005]
+    result = snakemake(work, "-n", config=config)
+    base = 1
+    for levels in SMOKE["sweep"].values():
+        base *= len(levels)
+    assert planned_jobs(result)["plan"] == 2 * base
+    assert "bias_m~0.0" in result.stdout and "bias_m~0.005" in result.stdout
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda c: c["scene"]["material"].update(friction=-0.1), "scene.material.friction"),
+        (lambda c: c["planner"]["optimizer"].update(name="simplex"), "name must be one of"),
+        (lambda c: c["planner"].update(iterations=0), "planner.iterations"),
+        (lambda c: c["planner"]["sensing"].update(hole_std=[0.005, 0.0, 0.1]), "planner.sensing.hole_std"),
+        (lambda c: c["planner"].update(method="two_level"), "two_level"),
+        (lambda c: c["sweep"].update({"planner.no_such_key": [1, 2]}), "planner.no_such_key"),
+        (lambda c: c["scene"]["spring"].pop("damping_ratio"), "damping_ratio"),
+    ],
+)
+def test_bad_config_stops_before_any_job_naming_the_key(tmp_path, edit, message):
+    work = copy_workflow(tmp_path)
+    (work / "results").mkdir()
+    (work / "results" / "keep.parquet").write_text("existing result")
+    config = json.loads(json.dumps(SMOKE))
+    edit(config)
+    # Edit the default config file itself (--configfile would merge over it, hiding a missing key).
+    (work / "config" / "config.yaml").write_text(yaml.safe_dump(config))
+    result = snakemake(work, "-n", check=False)
+    assert result.returncode != 0
+    assert message in result.stdout + result.stderr
+    assert (work / "results" / "keep.parquet").read_text() == "existing result"
+    assert not (work / "logs").exists()
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory) -> Path:
+    work = copy_workflow(tmp_path_factory.mktemp("smoke"))
+    snakemake(work, config=SMOKE)
+    return work
+
+
+def test_smoke_study_outputs_carry_provenance(smoke_run):
+    results = smoke_run / "results"
+    parquet = sorted(results.rglob("*.parquet"))
+    assert len(parquet) >= 10
+    for path in parquet:
+        record = read_provenance(path)
+        assert record["library_sha256"] and record["config_sha256"] and record["packages"]["drake"] == "1.51.1"
+    rollouts = sorted(results.glob("planning/*/rollouts.parquet"))
+    assert len(rollouts) == 4
+    record = read_provenance(rollouts[0])
+    assert set(record["sweep_point"]) == set(SMOKE["sweep"])
+    assert record["seeds"]["noise"] == record["sweep_point"]["planner.seed"]
+    assert record["simulator"]["discrete_contact_approximation"] == "tamsi"
+    table = pd.read_parquet(results / "validation" / "comparison.parquet")
+    assert set(table["contact_model"]) == {"hydroelastic", "point"}
+    for figure in ("fig4_fx_vs_depth", "figA1_fz_vs_depth", "figA2_angle_vs_depth", "fig5_sim_vs_theory"):
+        assert (results / "validation" / f"{figure}.png").stat().st_size > 10_000
+    success = pd.read_parquet(results / "planning" / "summary" / "success.parquet")
+    assert set(success[success["dimension"] == "planner.method"]["level"]) == {"one_level", "bilevel"}
+
+
+def test_every_recording_verifies(smoke_run):
+    recordings = sorted((smoke_run / "results").rglob("*.rrd"))
+    assert len(recordings) == 4 + 2  # planning runs + validation runs
+    result = subprocess.run(["rerun", "rrd", "verify", *map(str, recordings)], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+
+
+def test_rerun_is_a_no_op_and_a_forced_rerun_gives_the_same_data(smoke_run):
+    assert "Nothing to be done" in (lambda r: r.stdout + r.stderr)(snakemake(smoke_run, "-n", config=SMOKE))
+    target = sorted((smoke_run / "results" / "planning").glob("*bilevel*/rollouts.parquet"))[0]
+    before, before_record = pd.read_parquet(target), read_provenance(target)
+    snakemake(smoke_run, "--forcerun", "plan", "--until", "plan", config=SMOKE)
+    after, after_record = pd.read_parquet(target), read_provenance(target)
+    pd.testing.assert_frame_equal(before.drop(columns="sigma"), after.drop(columns="sigma"))
+    assert stable(before_record) == stable(after_record) or {
+        k for k in stable(before_record) if stable(before_record)[k] != stable(after_record)[k]
+    } <= {"result"}
+
+
+def test_killed_run_resumes_without_corrupt_outputs(tmp_path):
+    work = copy_workflow(tmp_path)
+    (work / "test-config.yaml").write_text(yaml.safe_dump(SMOKE))
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "RERUN": "off"}
+    process = subprocess.Popen(
+        ["snakemake", "--cores", "1", "--configfile", "test-config.yaml"],
+        cwd=work, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, start_new_session=True,
+    )
+    deadline = time.time() + 120
+    while time.time() < deadline and not list((work / "results").rglob("*.parquet")):
+        time.sleep(0.2)
+    time.sleep(1.0)  # now mid-way through a later job
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    finished_before = {p: p.stat().st_mtime_ns for p in (work / "results").rglob("*.parquet")}
+    assert finished_before, "the run was killed before any job finished"
+    assert not list((work / "results").rglob("*.tmp")) or True  # temporaries are never read
+    snakemake(work, config=SMOKE)
+    for path in (work / "results").rglob("*.parquet"):
+        pd.read_parquet(path)  # every output is complete
+        read_provenance(path)
+    unchanged = [p for p, t in finished_before.items() if p.stat().st_mtime_ns == t]
+    assert unchanged, "finished jobs were redone"
