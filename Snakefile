@@ -18,7 +18,7 @@ include: "workflow/rules/planning.smk"
 
 
 rule all:
+    default_target: True
     input:
         rules.validation_compare.output,
         rules.planning_aggregate.output,
-    default_target: True

@@ -3,7 +3,6 @@
 import os
 
 os.environ.setdefault("MPLBACKEND", "Agg")
-os.environ.setdefault("RERUN", "off")
 
 import pytest
 

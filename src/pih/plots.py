@@ -48,7 +48,10 @@ def validation_curves(
         for (model, off), frame in aligned.items():
             if off == offset:
                 ax.plot(1e3 * frame["depth_m"], frame[f"sim_{quantity}"], label=f"Drake {model}", **MODEL_STYLE.get(model, {}))
+        shown = (curve["depth_m"].min(), curve["depth_m"].max())
         for name, depth in markers[offset].items():
+            if not shown[0] <= depth <= shown[1]:
+                continue
             ax.axvline(1e3 * depth, color="grey", lw=0.6, ls=":")
             ax.annotate(name, (1e3 * depth, 1.0), xycoords=("data", "axes fraction"), fontsize=7, rotation=90, va="top", ha="right")
         ax.set_title(f"$\\epsilon_0$ = {1e3 * offset:g} mm ($x_P$ = {-1e3 * offset:g} mm)", fontsize=9)

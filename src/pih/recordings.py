@@ -9,6 +9,7 @@ web viewer on port 9090).
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -42,6 +43,8 @@ def peg_outline(q_peg: NDArray[np.float64], diameter_m: float, length_m: float) 
 
 
 def _open(run_id: str, path: Path, blueprint: rrb.Blueprint, provenance: Mapping[str, Any]) -> rr.RecordingStream:
+    if os.environ.get("RERUN", "").lower() in {"0", "off", "false", "no"}:
+        raise RuntimeError(f"cannot write {path}: the environment sets RERUN={os.environ['RERUN']}, which disables Rerun")
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=run_id)
     rec.save(path, default_blueprint=blueprint)
     rec.send_property("provenance", rr.AnyValues(record=canonical_json(dict(provenance))))

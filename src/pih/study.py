@@ -65,8 +65,16 @@ def cost_bands(runs: pd.DataFrame, group: str = "method") -> pd.DataFrame:
     return stats.reset_index()
 
 
+def final_success_fraction(rollouts: pd.DataFrame, last: int = 10) -> float:
+    """Fraction of the last ``last`` iterations whose best rollout succeeded: whether a run
+    *stays* successful, which a lucky sensed-hole draw in one iteration cannot fake."""
+    best = rollouts[rollouts["is_best"]].sort_values("iteration")
+    return float(best["success"].tail(last).mean())
+
+
 def success_table(summaries: pd.DataFrame, group: str = "method") -> pd.DataFrame:
-    """Success rate with Wilson 95 % interval and median iterations to success, per group."""
+    """Success rate with Wilson 95 % interval, median iterations to success and the mean
+    final-success fraction, per group."""
     rows = []
     for level, part in summaries.groupby(group):
         successes = int(part["succeeded"].sum())
@@ -81,6 +89,7 @@ def success_table(summaries: pd.DataFrame, group: str = "method") -> pd.DataFram
                 "ci95_low": low,
                 "ci95_high": high,
                 "median_iterations_to_success": float(iterations.median()) if len(iterations) else math.nan,
+                "mean_final_success_fraction": float(part["final_success_fraction"].mean()),
                 "diverged_rollout_fraction": float(part["diverged_fraction"].mean()),
                 "median_run_seconds": float(part["seconds"].median()),
             }

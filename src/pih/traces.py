@@ -47,6 +47,7 @@ TRACE_COLUMNS: dict[str, Column] = {
     "spring_moment_nm": ("N*m", "spring moment on the peg (eq. 10)"),
     "spring_energy_j": ("J", "spring energy E_RP (eq. 9)"),
     "insertion_depth_m": ("m", "depth of P2 below the hole entrance (bottom of chamfer), Whitney's l"),
+    "penetration_m": ("m", "deepest geometric overlap of peg and hole (solver transients)"),
 }
 _POSE_FIELDS = {"robot": "q_robot", "peg": "q_peg", "peg_top": "q_peg_top", "peg_bottom": "q_peg_bottom"}
 _TRIPLE_FIELDS = {
@@ -69,6 +70,7 @@ def trace_frame(trace: Trace) -> pd.DataFrame:
     columns["contact_patches"] = trace.contact_patches
     columns["spring_energy_j"] = trace.spring_energy_j
     columns["insertion_depth_m"] = trace.insertion_depth_m
+    columns["penetration_m"] = trace.penetration_m
     return pd.DataFrame(columns)[list(TRACE_COLUMNS)]
 
 
@@ -82,6 +84,7 @@ def frame_trace(frame: pd.DataFrame, status: str = "ok", reason: str = "") -> Tr
     arrays["contact_patches"] = frame["contact_patches"].to_numpy()
     arrays["spring_energy_j"] = frame["spring_energy_j"].to_numpy()
     arrays["insertion_depth_m"] = frame["insertion_depth_m"].to_numpy()
+    arrays["penetration_m"] = frame["penetration_m"].to_numpy()
     return Trace(**arrays, status=status, reason=reason)  # type: ignore[arg-type]
 
 

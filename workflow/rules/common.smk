@@ -44,7 +44,10 @@ FIGURE_POINTS = [
     for pattern, row in zip(
         PLANNING.instance_patterns, PLANNING.dataframe.to_dict("records")
     )
-    if all(row[path.rsplit(".", 1)[-1]] == level for path, level in config["figure_point"].items())
+    if all(
+        row[path.rsplit(".", 1)[-1]] == level
+        for path, level in config["figure_point"].items()
+    )
 ]
 
 

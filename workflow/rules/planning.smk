@@ -3,23 +3,23 @@ rule plan:
         rollouts=f"results/planning/{PLANNING.wildcard_pattern}/rollouts.parquet",
         best_paths=f"results/planning/{PLANNING.wildcard_pattern}/best_paths.parquet",
         recording=f"results/planning/{PLANNING.wildcard_pattern}/run.rrd",
+    log:
+        f"logs/planning/{PLANNING.wildcard_pattern}.log",
+    benchmark:
+        f"benchmarks/planning/{PLANNING.wildcard_pattern}.tsv"
+    group:
+        "planning"
+    conda:
+        "../envs/pih.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=30,
     params:
         scene=config["scene"],
         planner=config["planner"],
         point=sweep_point,
         library=LIBRARY_HASH,
-    log:
-        f"logs/planning/{PLANNING.wildcard_pattern}.log",
-    benchmark:
-        f"benchmarks/planning/{PLANNING.wildcard_pattern}.tsv"
-    threads: 1
-    resources:
-        mem_mb=2000,
-        runtime=30,
-    group:
-        "planning"
-    conda:
-        "../envs/pih.yaml"
     script:
         "../scripts/plan.py"
 
@@ -27,7 +27,8 @@ rule plan:
 rule planning_aggregate:
     input:
         rollouts=expand(
-            "results/planning/{point}/rollouts.parquet", point=PLANNING.instance_patterns
+            "results/planning/{point}/rollouts.parquet",
+            point=PLANNING.instance_patterns,
         ),
         best_paths=expand(
             "results/planning/{point}/best_paths.parquet", point=FIGURE_POINTS
@@ -56,19 +57,19 @@ rule planning_aggregate:
             caption="../report/fig8.rst",
             category="Planning",
         ),
+    log:
+        "logs/planning/aggregate.log",
+    localrule: True
+    conda:
+        "../envs/pih.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
     params:
         sweep=config["sweep"],
         scene=config["scene"],
         figure_points=FIGURE_POINTS,
         library=LIBRARY_HASH,
-    log:
-        "logs/planning/aggregate.log",
-    threads: 1
-    resources:
-        mem_mb=2000,
-        runtime=10,
-    localrule: True
-    conda:
-        "../envs/pih.yaml"
     script:
         "../scripts/planning_aggregate.py"

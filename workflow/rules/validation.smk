@@ -1,18 +1,18 @@
 rule whitney_curve:
     output:
         curve="results/whitney/offset_m~{offset}.parquet",
-    params:
-        scene=config["scene"],
-        validation=config["validation"],
-        library=LIBRARY_HASH,
     log:
         "logs/whitney/offset_m~{offset}.log",
+    conda:
+        "../envs/pih.yaml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
-    conda:
-        "../envs/pih.yaml"
+    params:
+        scene=config["scene"],
+        validation=config["validation"],
+        library=LIBRARY_HASH,
     script:
         "../scripts/whitney_curve.py"
 
@@ -21,20 +21,20 @@ rule validation_run:
     output:
         trace="results/validation/{model}/offset_m~{offset}.parquet",
         recording="results/validation/{model}/offset_m~{offset}.rrd",
-    params:
-        scene=config["scene"],
-        validation=config["validation"],
-        library=LIBRARY_HASH,
     log:
         "logs/validation/{model}/offset_m~{offset}.log",
     benchmark:
         "benchmarks/validation/{model}/offset_m~{offset}.tsv"
+    conda:
+        "../envs/pih.yaml"
     threads: 1
     resources:
         mem_mb=2000,
         runtime=15,
-    conda:
-        "../envs/pih.yaml"
+    params:
+        scene=config["scene"],
+        validation=config["validation"],
+        library=LIBRARY_HASH,
     script:
         "../scripts/validation_run.py"
 
@@ -46,7 +46,9 @@ rule validation_compare:
             model=CONTACT_MODELS,
             offset=VALIDATION_OFFSETS,
         ),
-        curves=expand("results/whitney/offset_m~{offset}.parquet", offset=VALIDATION_OFFSETS),
+        curves=expand(
+            "results/whitney/offset_m~{offset}.parquet", offset=VALIDATION_OFFSETS
+        ),
     output:
         table="results/validation/comparison.parquet",
         markdown=report(
@@ -84,18 +86,18 @@ rule validation_compare:
                 "fig5_sim_vs_theory",
             ],
         ),
-    params:
-        scene=config["scene"],
-        validation=config["validation"],
-        library=LIBRARY_HASH,
     log:
         "logs/validation/compare.log",
+    localrule: True
+    conda:
+        "../envs/pih.yaml"
     threads: 1
     resources:
         mem_mb=2000,
         runtime=10,
-    localrule: True
-    conda:
-        "../envs/pih.yaml"
+    params:
+        scene=config["scene"],
+        validation=config["validation"],
+        library=LIBRARY_HASH,
     script:
         "../scripts/validation_compare.py"

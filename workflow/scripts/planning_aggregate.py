@@ -7,7 +7,7 @@ import pandas as pd
 from pih import plots
 from pih.config import from_mapping
 from pih.scene import SceneConfig
-from pih.study import cost_bands, markdown_table, success_table
+from pih.study import cost_bands, final_success_fraction, markdown_table, success_table
 from pih.traces import read_metadata, read_provenance, write_table, write_text
 from pih.workflow import job_provenance, logged
 
@@ -23,6 +23,7 @@ with logged(snakemake.log[0]):
         bests.append(best)
         summaries.append({**{k: point[k] for k in sweep_keys}, "succeeded": run["success_iteration"] is not None,
                           "success_iteration": run["success_iteration"], "seconds": run["seconds"],
+                          "final_success_fraction": final_success_fraction(rollouts),
                           "diverged_fraction": float((rollouts["status"] != "ok").mean())})
     runs = pd.concat(bests, ignore_index=True)
     summary = pd.DataFrame(summaries)

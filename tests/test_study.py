@@ -1,0 +1,61 @@
+"""Sweep overrides and the aggregates of the study."""
+
+import math
+
+import pandas as pd
+import pytest
+
+from pih.config import ConfigError, to_mapping
+from pih.planner import PlannerConfig
+from pih.scene import SceneConfig
+from pih.study import cost_bands, final_success_fraction, override, resolve, success_table, wilson_interval
+
+
+def base_config() -> dict:
+    return {"scene": to_mapping(SceneConfig()), "planner": to_mapping(PlannerConfig())}
+
+
+def test_override_sets_dotted_paths_and_rejects_unknown_keys():
+    scene, planner = resolve(base_config(), {"planner.sensing.bias_m": 0.0, "scene.material.friction": 0.3})
+    assert planner.sensing.bias_m == 0.0 and scene.material.friction == 0.3
+    with pytest.raises(ConfigError, match="planner.sensing.bias"):
+        override(base_config(), {"planner.sensing.bias": 0.0})
+
+
+def test_wilson_interval_known_values():
+    low, high = wilson_interval(11, 11)
+    assert high == 1.0 and low == pytest.approx(0.7412, abs=1e-4)
+    low, high = wilson_interval(0, 11)
+    assert low == pytest.approx(0.0, abs=1e-12) and high == pytest.approx(0.2588, abs=1e-4)
+    assert all(math.isnan(v) for v in wilson_interval(0, 0))
+
+
+def test_bands_and_success_table():
+    runs = pd.DataFrame(
+        {"method": ["a", "a", "b", "b"], "iteration": [1, 1, 1, 1], "cost": [1.0, 3.0, 10.0, 10.0]}
+    )
+    bands = cost_bands(runs)
+    a = bands[bands["method"] == "a"].iloc[0]
+    assert (a["mean"], a["var"], a["count"]) == (2.0, 2.0, 2)
+    summaries = pd.DataFrame(
+        {
+            "method": ["a", "a", "b"],
+            "succeeded": [True, False, True],
+            "success_iteration": [4, None, 10],
+            "final_success_fraction": [1.0, 0.0, 0.5],
+            "diverged_fraction": [0.1, 0.0, 0.2],
+            "seconds": [1.0, 2.0, 3.0],
+        }
+    )
+    table = success_table(summaries).set_index("method")
+    assert table.loc["a", "success_rate"] == 0.5 and table.loc["a", "median_iterations_to_success"] == 4
+    assert table.loc["b", "mean_final_success_fraction"] == 0.5
+
+
+def test_final_success_fraction_uses_the_last_best_rollouts():
+    rollouts = pd.DataFrame(
+        {"iteration": [1, 1, 2, 2, 3, 3], "is_best": [True, False, False, True, True, False],
+         "success": [True, False, False, False, True, True]}
+    )
+    assert final_success_fraction(rollouts, last=2) == 0.5
+    assert final_success_fraction(rollouts, last=3) == pytest.approx(2 / 3)
