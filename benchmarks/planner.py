@@ -16,13 +16,17 @@ from pih.scene import SceneConfig
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--iterations", type=int, default=PlannerConfig().iterations)
     parser.add_argument("--method", default="bilevel", choices=["one_level", "bilevel"])
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
 
-    config = replace(PlannerConfig(), iterations=args.iterations, method=args.method, seed=args.seed)
+    config = replace(
+        PlannerConfig(), iterations=args.iterations, method=args.method, seed=args.seed
+    )
     started = time.perf_counter()
     planner = Planner.from_configs(SceneConfig(), config)
     setup = time.perf_counter() - started

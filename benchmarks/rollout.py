@@ -26,7 +26,7 @@ def planning_rollout(scene: PegInHoleScene, duration_s: float = 3.5) -> RobotTra
     goal = scene.peg_top_from_bottom([hole.x_m, hole.y_m + 0.001, 0.0])
     across = np.clip(t / 2.0, 0, 1)
     down = np.clip((t - 1.8) / 1.5, 0, 1)
-    smooth = lambda s: 3 * s**2 - 2 * s**3  # noqa: E731
+    smooth = lambda s: 3 * s**2 - 2 * s**3
     poses = np.column_stack(
         [
             start[0] + (goal[0] - start[0]) * smooth(across),
@@ -49,7 +49,9 @@ def time_rollouts(make_scene, runs: int) -> tuple[list[float], str]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--runs", type=int, default=15)
     parser.add_argument("--naive-runs", type=int, default=3)
     args = parser.parse_args()
@@ -58,16 +60,20 @@ def main() -> None:
     scene = PegInHoleScene(config)
     scene.rollout(planning_rollout(scene))  # warm-up
     reused, status = time_rollouts(lambda: scene, args.runs)
-    print(f"reused diagram, {config.solver.time_step_s * 1e3:g} ms step: median {statistics.median(reused):.0f} ms "
-          f"per rollout (min {min(reused):.0f}, max {max(reused):.0f}, n = {args.runs}); {status}")
+    print(
+        f"reused diagram, {config.solver.time_step_s * 1e3:g} ms step: median {statistics.median(reused):.0f} ms "
+        f"per rollout (min {min(reused):.0f}, max {max(reused):.0f}, n = {args.runs}); {status}"
+    )
     no_patches = PegInHoleScene(config.replace(solver__log_contact_patches=False))
     lean, _ = time_rollouts(lambda: no_patches, args.runs)
     print(f"  without the per-step contact-patch count: median {statistics.median(lean):.0f} ms")
     naive_config = config.replace(solver__time_step_s=1e-3)
     naive, status = time_rollouts(lambda: PegInHoleScene(naive_config), args.naive_runs)
     ratio = statistics.median(naive) / statistics.median(reused)
-    print(f"naive (fresh diagram per rollout, 1 ms step): median {statistics.median(naive):.0f} ms "
-          f"per rollout; {ratio:.1f}x slower; {status}")
+    print(
+        f"naive (fresh diagram per rollout, 1 ms step): median {statistics.median(naive):.0f} ms "
+        f"per rollout; {ratio:.1f}x slower; {status}"
+    )
 
 
 if __name__ == "__main__":

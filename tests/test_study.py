@@ -8,7 +8,14 @@ import pytest
 from pih.config import ConfigError, to_mapping
 from pih.planner import PlannerConfig
 from pih.scene import SceneConfig
-from pih.study import cost_bands, final_success_fraction, override, resolve, success_table, wilson_interval
+from pih.study import (
+    cost_bands,
+    final_success_fraction,
+    override,
+    resolve,
+    success_table,
+    wilson_interval,
+)
 
 
 def base_config() -> dict:
@@ -16,7 +23,9 @@ def base_config() -> dict:
 
 
 def test_override_sets_dotted_paths_and_rejects_unknown_keys():
-    scene, planner = resolve(base_config(), {"planner.sensing.bias_m": 0.0, "scene.material.friction": 0.3})
+    scene, planner = resolve(
+        base_config(), {"planner.sensing.bias_m": 0.0, "scene.material.friction": 0.3}
+    )
     assert planner.sensing.bias_m == 0.0 and scene.material.friction == 0.3
     with pytest.raises(ConfigError, match="planner.sensing.bias"):
         override(base_config(), {"planner.sensing.bias": 0.0})
@@ -48,14 +57,20 @@ def test_bands_and_success_table():
         }
     )
     table = success_table(summaries).set_index("method")
-    assert table.loc["a", "success_rate"] == 0.5 and table.loc["a", "median_iterations_to_success"] == 4
+    assert (
+        table.loc["a", "success_rate"] == 0.5
+        and table.loc["a", "median_iterations_to_success"] == 4
+    )
     assert table.loc["b", "mean_final_success_fraction"] == 0.5
 
 
 def test_final_success_fraction_uses_the_last_best_rollouts():
     rollouts = pd.DataFrame(
-        {"iteration": [1, 1, 2, 2, 3, 3], "is_best": [True, False, False, True, True, False],
-         "success": [True, False, False, False, True, True]}
+        {
+            "iteration": [1, 1, 2, 2, 3, 3],
+            "is_best": [True, False, False, True, True, False],
+            "success": [True, False, False, False, True, True],
+        }
     )
     assert final_success_fraction(rollouts, last=2) == 0.5
     assert final_success_fraction(rollouts, last=3) == pytest.approx(2 / 3)

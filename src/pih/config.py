@@ -9,7 +9,6 @@ are :class:`ConfigError` naming the dotted key (``scene.material.friction``) and
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import math
 import types
@@ -102,13 +101,6 @@ def to_mapping(obj: Any) -> dict[str, Any]:
     return json.loads(json.dumps(dataclasses.asdict(obj)))
 
 
-def config_hash(obj: Any) -> str:
-    """sha256 of the canonical JSON of a config dataclass or mapping."""
-    data = to_mapping(obj) if dataclasses.is_dataclass(obj) else obj
-    text = json.dumps(data, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
 def json_schema(tp: Any) -> dict[str, Any]:
     """JSON schema (2020-12) of a config dataclass or field type: types, required keys, enums.
     Ranges are checked by each dataclass's ``validate``."""
@@ -131,7 +123,12 @@ def json_schema(tp: Any) -> dict[str, Any]:
         args = get_args(tp)
         if len(args) == 2 and args[1] is Ellipsis:
             return {"type": "array", "items": json_schema(args[0])}
-        return {"type": "array", "prefixItems": [json_schema(a) for a in args], "minItems": len(args), "maxItems": len(args)}
+        return {
+            "type": "array",
+            "prefixItems": [json_schema(a) for a in args],
+            "minItems": len(args),
+            "maxItems": len(args),
+        }
     simple = {float: "number", int: "integer", bool: "boolean", str: "string"}
     if tp in simple:
         return {"type": simple[tp]}

@@ -198,7 +198,9 @@ class Dmp:
         frac = (t_steps - index)[:, None, None]
         sampled = (1.0 - frac) * states[index] + frac * states[index + 1]
 
-        forcing_gains = (self.config.alpha * self.config.beta) * self.amplitude[:, None] * w.reshape(N_DOF, -1)
+        forcing_gains = (
+            (self.config.alpha * self.config.beta) * self.amplitude[:, None] * w.reshape(N_DOF, -1)
+        )
         gains = np.vstack([self.start - self.goal, forcing_gains.T])
         positions = self.goal + sampled[:, 0, :] @ gains
         velocities = sampled[:, 1, :] @ gains

@@ -57,7 +57,9 @@ class CostConfig:
     def validate(self, prefix: str = "") -> None:
         for name in ("regularization", "spring_energy", "hole_distance"):
             value = getattr(self, name)
-            require(math.isfinite(value) and value >= 0, prefix + name, "a finite weight >= 0", value)
+            require(
+                math.isfinite(value) and value >= 0, prefix + name, "a finite weight >= 0", value
+            )
         require(
             math.isfinite(self.sample_period_s) and self.sample_period_s > 0,
             prefix + "sample_period_s",
@@ -80,7 +82,12 @@ class SensingConfig:
 
     def validate(self, prefix: str = "") -> None:
         require_finite(prefix + "bias_m", self.bias_m)
-        require(math.isfinite(self.std_m) and self.std_m >= 0, prefix + "std_m", "a finite std >= 0 m", self.std_m)
+        require(
+            math.isfinite(self.std_m) and self.std_m >= 0,
+            prefix + "std_m",
+            "a finite std >= 0 m",
+            self.std_m,
+        )
         require(
             all(math.isfinite(s) and s > 0 for s in self.hole_std),
             prefix + "hole_std",
@@ -124,7 +131,9 @@ class PlannerConfig:
         for name in ("start_height_m", "settle_s", "success_tolerance_m"):
             value = getattr(self, name)
             ok = math.isfinite(value) and (value > 0 if name != "settle_s" else value >= 0)
-            require(ok, prefix + name, "a finite value > 0" if name != "settle_s" else ">= 0", value)
+            require(
+                ok, prefix + name, "a finite value > 0" if name != "settle_s" else ">= 0", value
+            )
         require(self.seed >= 0, prefix + "seed", "an integer >= 0", self.seed)
         for section in ("dmp", "optimizer"):
             try:
@@ -167,7 +176,8 @@ def inner_cost(
     return CostTerms(
         regularization=costs.regularization * float(np.dot(weights, weights)),
         spring_energy=costs.spring_energy * float(np.sum(energy)),
-        hole_distance=costs.hole_distance * float(np.sum(hole_distance(q_peg_bottom, sensed_hole, sensing))),
+        hole_distance=costs.hole_distance
+        * float(np.sum(hole_distance(q_peg_bottom, sensed_hole, sensing))),
     )
 
 
@@ -183,7 +193,9 @@ def outer_goal(
     explored_bottom: NDArray[np.float64], sensed_hole: NDArray[np.float64], sensing: SensingConfig
 ) -> NDArray[np.float64]:
     """arg min over explored P2 poses of J_out(q_P2, q̃_H) (eq. 15–16)."""
-    return explored_bottom[int(np.argmin(0.5 * hole_distance(explored_bottom, sensed_hole, sensing)))]
+    return explored_bottom[
+        int(np.argmin(0.5 * hole_distance(explored_bottom, sensed_hole, sensing)))
+    ]
 
 
 # --------------------------------------------------------------------------------------------
@@ -261,7 +273,7 @@ class Planner:
         self.cost_samples = slice(0, None, every)
 
     @classmethod
-    def from_configs(cls, scene: SceneConfig, config: PlannerConfig) -> "Planner":
+    def from_configs(cls, scene: SceneConfig, config: PlannerConfig) -> Planner:
         """A planner on a new scene. The planner never reads contact-patch counts, so the scene
         skips that per-step callback."""
         return cls(PegInHoleScene(scene.replace(solver__log_contact_patches=False)), config)
@@ -272,7 +284,9 @@ class Planner:
         sensing = self.config.sensing
         return np.array([rng.normal(truth[0] + sensing.bias_m, sensing.std_m), truth[1], truth[2]])
 
-    def evaluate(self, dmp: Dmp, weights: NDArray[np.float64], sensed_hole: NDArray[np.float64]) -> tuple[Trace, CostTerms | None]:
+    def evaluate(
+        self, dmp: Dmp, weights: NDArray[np.float64], sensed_hole: NDArray[np.float64]
+    ) -> tuple[Trace, CostTerms | None]:
         """One rollout: DMP → simulator → J_inn (None if the simulation diverged)."""
         poses, _ = dmp.rollout(weights, self.times_s)
         trace = self.scene.rollout(RobotTrajectory(self.times_s, poses))
@@ -305,7 +319,11 @@ class Planner:
         started = time.perf_counter()
         for iteration in range(1, cfg.iterations + 1):
             sensed = self.sense_hole(rng)
-            target = sensed if cfg.method == "one_level" or explored is None else outer_goal(explored, sensed, cfg.sensing)
+            target = (
+                sensed
+                if cfg.method == "one_level" or explored is None
+                else outer_goal(explored, sensed, cfg.sensing)
+            )
             dmp = dmp0.with_goal(self.scene.peg_top_from_bottom(target))
             sigma = optimizer.sigma
             samples = optimizer.ask()
@@ -340,7 +358,9 @@ class Planner:
                 )
             optimizer.tell(samples, costs)
             ok = [t for t in traces if t.ok]
-            explored = np.vstack([t.q_peg_bottom[self.cost_samples] for t in ok]) if ok else explored
+            explored = (
+                np.vstack([t.q_peg_bottom[self.cost_samples] for t in ok]) if ok else explored
+            )
             best = int(np.nanargmin(costs)) if np.any(np.isfinite(costs)) else 0
             rows[-len(samples) + best]["is_best"] = True
             paths.append(_best_path(iteration, traces[best]))
@@ -359,7 +379,11 @@ class Planner:
 
 
 def _pose_columns(prefix: str, q: NDArray[np.float64]) -> dict[str, float]:
-    return {f"{prefix}_x_m": float(q[0]), f"{prefix}_y_m": float(q[1]), f"{prefix}_theta_rad": float(q[2])}
+    return {
+        f"{prefix}_x_m": float(q[0]),
+        f"{prefix}_y_m": float(q[1]),
+        f"{prefix}_theta_rad": float(q[2]),
+    }
 
 
 def _best_path(iteration: int, trace: Trace) -> pd.DataFrame:

@@ -8,20 +8,23 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
 
-from pih.recordings import hole_outline  # noqa: E402
-from pih.scene import HoleConfig  # noqa: E402
-from pih.traces import write_with  # noqa: E402
+from pih.recordings import hole_outline
+from pih.scene import HoleConfig
+from pih.traces import write_with
 
 QUANTITIES = {
     "f_x_n": ("$F_x$ (N)", "Insertion force $F_x$ vs depth (paper Fig. 4)"),
     "f_z_n": ("$F_z$ (N)", "Insertion force $F_z$ vs depth (paper Fig. A1)"),
     "theta_rad": ("$\\theta$ (rad)", "Insertion angle vs depth (paper Fig. A2)"),
 }
-MODEL_STYLE = {"hydroelastic": dict(color="tab:blue", lw=1.2), "point": dict(color="tab:orange", lw=1.0, ls="--")}
+MODEL_STYLE = {
+    "hydroelastic": {"color": "tab:blue", "lw": 1.2},
+    "point": {"color": "tab:orange", "lw": 1.0, "ls": "--"},
+}
 
 
 def save(fig: plt.Figure, png: str | Path, pdf: str | Path | None = None) -> None:
@@ -47,14 +50,29 @@ def validation_curves(
         ax.plot(1e3 * curve["depth_m"], curve[quantity], color="black", lw=1.5, label="Whitney")
         for (model, off), frame in aligned.items():
             if off == offset:
-                ax.plot(1e3 * frame["depth_m"], frame[f"sim_{quantity}"], label=f"Drake {model}", **MODEL_STYLE.get(model, {}))
+                ax.plot(
+                    1e3 * frame["depth_m"],
+                    frame[f"sim_{quantity}"],
+                    label=f"Drake {model}",
+                    **MODEL_STYLE.get(model, {}),
+                )
         shown = (curve["depth_m"].min(), curve["depth_m"].max())
         for name, depth in markers[offset].items():
             if not shown[0] <= depth <= shown[1]:
                 continue
             ax.axvline(1e3 * depth, color="grey", lw=0.6, ls=":")
-            ax.annotate(name, (1e3 * depth, 1.0), xycoords=("data", "axes fraction"), fontsize=7, rotation=90, va="top", ha="right")
-        ax.set_title(f"$\\epsilon_0$ = {1e3 * offset:g} mm ($x_P$ = {-1e3 * offset:g} mm)", fontsize=9)
+            ax.annotate(
+                name,
+                (1e3 * depth, 1.0),
+                xycoords=("data", "axes fraction"),
+                fontsize=7,
+                rotation=90,
+                va="top",
+                ha="right",
+            )
+        ax.set_title(
+            f"$\\epsilon_0$ = {1e3 * offset:g} mm ($x_P$ = {-1e3 * offset:g} mm)", fontsize=9
+        )
         ax.set_xlabel("insertion depth $\\ell$ (mm, aligned)")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
@@ -73,7 +91,14 @@ def force_scatter(aligned: Mapping[tuple[str, float], pd.DataFrame]) -> plt.Figu
         for (model, offset), frame in aligned.items():
             colour = colours(offsets.index(offset) / max(1, len(offsets) - 1))
             marker = "." if model == "hydroelastic" else "x"
-            ax.plot(frame[f"theory_{quantity}"], frame[f"sim_{quantity}"], marker, ms=2, color=colour, label=f"{model}, {1e3 * offset:g} mm")
+            ax.plot(
+                frame[f"theory_{quantity}"],
+                frame[f"sim_{quantity}"],
+                marker,
+                ms=2,
+                color=colour,
+                label=f"{model}, {1e3 * offset:g} mm",
+            )
         lo, hi = ax.get_xlim()
         ax.plot([lo, hi], [lo, hi], color="black", lw=0.8)
         name = QUANTITIES[quantity][0]
@@ -81,7 +106,10 @@ def force_scatter(aligned: Mapping[tuple[str, float], pd.DataFrame]) -> plt.Figu
         ax.set_ylabel(f"simulated {name}")
         ax.grid(alpha=0.3)
     axes[1].legend(fontsize=6, markerscale=4)
-    fig.suptitle("Simulated vs theoretical contact force at the same aligned depth (paper Fig. 5)", fontsize=10)
+    fig.suptitle(
+        "Simulated vs theoretical contact force at the same aligned depth (paper Fig. 5)",
+        fontsize=10,
+    )
     fig.tight_layout()
     return fig
 
@@ -92,14 +120,25 @@ def cost_band_figure(bands: pd.DataFrame, group: str = "method") -> plt.Figure:
     for level, part in bands.groupby(group):
         part = part.sort_values("iteration")
         mean, std = part["mean"].to_numpy(), np.nan_to_num(part["std"].to_numpy())
-        line = ax.plot(part["iteration"], mean, label=f"{group} = {level} (n = {int(part['count'].max())})")[0]
-        ax.fill_between(part["iteration"], np.maximum(mean - std, 1e-12), mean + std, color=line.get_color(), alpha=0.25)
+        line = ax.plot(
+            part["iteration"], mean, label=f"{group} = {level} (n = {int(part['count'].max())})"
+        )[0]
+        ax.fill_between(
+            part["iteration"],
+            np.maximum(mean - std, 1e-12),
+            mean + std,
+            color=line.get_color(),
+            alpha=0.25,
+        )
     ax.set_yscale("log")
     ax.set_xlabel("iteration")
     ax.set_ylabel("best inner cost $J_{inn}$ (eq. 11, dimensionless)")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
-    ax.set_title("Mean and ±1 s.d. band of the best cost over starts and noise seeds (paper Fig. 9)", fontsize=9)
+    ax.set_title(
+        "Mean and ±1 s.d. band of the best cost over starts and noise seeds (paper Fig. 9)",
+        fontsize=9,
+    )
     fig.tight_layout()
     return fig
 
@@ -109,13 +148,28 @@ def best_paths_figure(best_paths: pd.DataFrame, hole: HoleConfig, title: str) ->
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), sharex=True, sharey=True)
     iterations = sorted(best_paths["iteration"].unique())
     cmap = plt.get_cmap("Greys")
-    for ax, (x, y, name) in zip(axes, (("peg_bottom_x_m", "peg_bottom_y_m", "(a) best peg tip P2 path"), ("robot_x_m", "robot_y_m", "(b) best robot path R (minus peg length)"))):
+    for ax, (x, y, name) in zip(
+        axes,
+        (
+            ("peg_bottom_x_m", "peg_bottom_y_m", "(a) best peg tip P2 path"),
+            ("robot_x_m", "robot_y_m", "(b) best robot path R (minus peg length)"),
+        ),
+    ):
         for wall in hole_outline(hole):
             ax.plot(1e3 * wall[:, 0], 1e3 * wall[:, 1], color="tab:brown", lw=1)
         for k, iteration in enumerate(iterations):
             part = best_paths[best_paths["iteration"] == iteration]
-            shift = 0.0 if x.startswith("peg") else part["robot_y_m"].iloc[0] - part["peg_bottom_y_m"].iloc[0]
-            ax.plot(1e3 * part[x], 1e3 * (part[y] - shift), color=cmap(0.25 + 0.75 * k / max(1, len(iterations) - 1)), lw=0.8)
+            shift = (
+                0.0
+                if x.startswith("peg")
+                else part["robot_y_m"].iloc[0] - part["peg_bottom_y_m"].iloc[0]
+            )
+            ax.plot(
+                1e3 * part[x],
+                1e3 * (part[y] - shift),
+                color=cmap(0.25 + 0.75 * k / max(1, len(iterations) - 1)),
+                lw=0.8,
+            )
         ax.set_title(name, fontsize=9)
         ax.set_xlabel("x (mm)")
         ax.set_ylabel("y (mm)")

@@ -22,6 +22,7 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from pydrake.common import MemoryFile
 from pydrake.geometry import (
     AddCompliantHydroelasticProperties,
     AddContactMaterial,
@@ -31,7 +32,6 @@ from pydrake.geometry import (
     InMemoryMesh,
     ProximityProperties,
 )
-from pydrake.common import MemoryFile
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import (
     AddMultibodyPlant,
@@ -133,7 +133,9 @@ class HoleConfig:
             "a radius >= 0 m",
             self.fillet_radius_m,
         )
-        require(self.fillet_facets >= 1, prefix + "fillet_facets", "an integer >= 1", self.fillet_facets)
+        require(
+            self.fillet_facets >= 1, prefix + "fillet_facets", "an integer >= 1", self.fillet_facets
+        )
         require_finite(prefix + "x_m", self.x_m)
         require_finite(prefix + "y_m", self.y_m)
 
@@ -174,7 +176,9 @@ class MaterialConfig:
             require(math.isfinite(value) and value > 0, prefix + name, "a finite value > 0", value)
         for name in ("hunt_crossley_dissipation_s_per_m", "friction", "margin_m"):
             value = getattr(self, name)
-            require(math.isfinite(value) and value >= 0, prefix + name, "a finite value >= 0", value)
+            require(
+                math.isfinite(value) and value >= 0, prefix + name, "a finite value >= 0", value
+            )
 
 
 ContactModel = Literal["hydroelastic", "hydroelastic_with_fallback", "point"]
@@ -206,7 +210,13 @@ class SolverConfig:
     log_contact_patches: bool = True
 
     def validate(self, prefix: str = "") -> None:
-        for name in ("time_step_s", "max_contact_force_n", "max_distance_from_hole_m", "max_penetration_m", "check_interval_s"):
+        for name in (
+            "time_step_s",
+            "max_contact_force_n",
+            "max_distance_from_hole_m",
+            "max_penetration_m",
+            "check_interval_s",
+        ):
             value = getattr(self, name)
             require(math.isfinite(value) and value > 0, prefix + name, "a finite value > 0", value)
 
@@ -259,7 +269,7 @@ class SceneConfig:
             self.material.margin_m,
         )
 
-    def replace(self, **sections: object) -> "SceneConfig":
+    def replace(self, **sections: object) -> SceneConfig:
         """Copy with whole sections or ``section__field`` values replaced."""
         updates: dict[str, dict[str, object]] = {}
         direct: dict[str, object] = {}
@@ -314,9 +324,13 @@ class RobotTrajectory:
         t = np.asarray(self.times_s, dtype=float)
         q = np.asarray(self.poses, dtype=float)
         if t.ndim != 1 or t.size < 2:
-            raise TrajectoryError(f"times_s must be a 1-D array of >= 2 samples, got shape {t.shape}")
+            raise TrajectoryError(
+                f"times_s must be a 1-D array of >= 2 samples, got shape {t.shape}"
+            )
         if q.shape != (t.size, 3):
-            raise TrajectoryError(f"poses must have shape ({t.size}, 3) for (x, y, θ), got {q.shape}")
+            raise TrajectoryError(
+                f"poses must have shape ({t.size}, 3) for (x, y, θ), got {q.shape}"
+            )
         if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q))):
             bad = np.argwhere(~np.isfinite(np.column_stack([t, q])))[0][0]
             raise TrajectoryError(f"trajectory has NaN/inf at sample {bad} (t = {t[bad]!r})")
@@ -435,7 +449,9 @@ class PegInHoleScene:
         self._build()
         profile = self._wall_profile = wall_profile(self.config.hole)
         edges = np.roll(profile, -1, axis=0) - profile
-        self._wall_normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / np.hypot(*edges.T)[:, None]
+        self._wall_normals = (
+            np.column_stack([edges[:, 1], -edges[:, 0]]) / np.hypot(*edges.T)[:, None]
+        )
         self._wall_offsets = np.sum(self._wall_normals * profile, axis=1)
 
     # -- construction -------------------------------------------------------------------------
@@ -448,7 +464,7 @@ class PegInHoleScene:
             discrete_contact_approximation=cfg.solver.discrete_contact_approximation,
             contact_model=model,
         )
-        plant, scene_graph = AddMultibodyPlant(plant_config, builder)
+        plant, _ = AddMultibodyPlant(plant_config, builder)
         plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, 0.0])
         self._register_hole(plant)
         peg_instance = plant.AddModelInstance("peg")
@@ -470,7 +486,9 @@ class PegInHoleScene:
         )
         frame_on_peg = plant.AddFrame(
             FixedOffsetFrame(
-                "peg_top_P1", peg.body_frame(), RigidTransform(to_plane, [0, 0, cfg.peg.length_m / 2])
+                "peg_top_P1",
+                peg.body_frame(),
+                RigidTransform(to_plane, [0, 0, cfg.peg.length_m / 2]),
             )
         )
         plant.AddJoint(PlanarJoint("peg_planar", frame_on_world, frame_on_peg))
@@ -485,12 +503,18 @@ class PegInHoleScene:
             TrajectorySource(PiecewisePolynomial.FirstOrderHold([0.0, 1.0], np.zeros((3, 2))), 1)
         )
         self._robot_source.set_name("robot_trajectory")
-        builder.Connect(plant.get_state_output_port(peg_instance), spring.get_input_port_estimated_state())
+        builder.Connect(
+            plant.get_state_output_port(peg_instance), spring.get_input_port_estimated_state()
+        )
         builder.Connect(self._robot_source.get_output_port(), spring.get_input_port_desired_state())
-        builder.Connect(spring.get_output_port_control(), plant.get_applied_generalized_force_input_port())
+        builder.Connect(
+            spring.get_output_port_control(), plant.get_applied_generalized_force_input_port()
+        )
 
         period = cfg.solver.time_step_s
-        self._state_log = LogVectorOutput(plant.get_state_output_port(peg_instance), builder, period)
+        self._state_log = LogVectorOutput(
+            plant.get_state_output_port(peg_instance), builder, period
+        )
         self._robot_log = LogVectorOutput(self._robot_source.get_output_port(), builder, period)
         self._contact_log = LogVectorOutput(
             plant.get_generalized_contact_forces_output_port(peg_instance), builder, period
@@ -508,7 +532,9 @@ class PegInHoleScene:
             plant_context = self._plant_context
 
             def count_patches(context):  # runs after every step
-                counts.append((context.get_time(), _patches_with_force(contact_port.Eval(plant_context))))
+                counts.append(
+                    (context.get_time(), _patches_with_force(contact_port.Eval(plant_context)))
+                )
                 return EventStatus.Succeeded()
 
             self._simulator.set_monitor(count_patches)
@@ -550,7 +576,9 @@ class PegInHoleScene:
             AddRigidHydroelasticProperties(props)
         else:
             AddCompliantHydroelasticProperties(
-                resolution_hint=1.0, hydroelastic_modulus=material.hydroelastic_modulus_pa, properties=props
+                resolution_hint=1.0,
+                hydroelastic_modulus=material.hydroelastic_modulus_pa,
+                properties=props,
             )
         props.AddProperty("hydroelastic", "margin", material.margin_m)
         return props
@@ -574,14 +602,26 @@ class PegInHoleScene:
         half = np.array([self.config.peg.diameter_m, self.config.peg.length_m]) / 2
         c, s = np.cos(q[:, 2:3]), np.sin(q[:, 2:3])
         signs = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * half  # (4, 2) in the peg frame
-        corners = np.stack(
-            [q[:, 0:1] + c * signs[:, 0] - s * signs[:, 1], q[:, 1:2] + s * signs[:, 0] + c * signs[:, 1]], axis=-1
-        ) - self.hole_pose[:2]  # (n, 4, 2) in the hole frame
+        corners = (
+            np.stack(
+                [
+                    q[:, 0:1] + c * signs[:, 0] - s * signs[:, 1],
+                    q[:, 1:2] + s * signs[:, 0] + c * signs[:, 1],
+                ],
+                axis=-1,
+            )
+            - self.hole_pose[:2]
+        )  # (n, 4, 2) in the hole frame
         depth = np.maximum(0.0, -corners[..., 1])  # below the hole bottom
         for mirror in (1.0, -1.0):  # right wall, left wall (its mirror image)
-            depth = np.maximum(depth, _depth_inside(self._wall_normals, self._wall_offsets, corners * [mirror, 1.0]))
+            depth = np.maximum(
+                depth,
+                _depth_inside(self._wall_normals, self._wall_offsets, corners * [mirror, 1.0]),
+            )
         # ...and the walls' vertices (chamfer edge, fillet) inside the peg rectangle.
-        vertices = np.vstack([self._wall_profile, self._wall_profile * [-1.0, 1.0]]) + self.hole_pose[:2]
+        vertices = (
+            np.vstack([self._wall_profile, self._wall_profile * [-1.0, 1.0]]) + self.hole_pose[:2]
+        )
         rel = vertices[None, :, :] - q[:, None, :2]  # (n, m, 2) world offsets from the peg centre
         along_x = np.abs(c * rel[..., 0] + s * rel[..., 1])
         along_y = np.abs(-s * rel[..., 0] + c * rel[..., 1])
@@ -600,7 +640,9 @@ class PegInHoleScene:
         if not isinstance(robot, RobotTrajectory):
             raise TrajectoryError(f"rollout() takes a RobotTrajectory, got {type(robot).__name__}")
         cfg = self.config
-        self._robot_source.UpdateTrajectory(PiecewisePolynomial.FirstOrderHold(robot.times_s, robot.poses.T))
+        self._robot_source.UpdateTrajectory(
+            PiecewisePolynomial.FirstOrderHold(robot.times_s, robot.poses.T)
+        )
         context = self._context
         context.SetTime(0.0)
         self._diagram.SetDefaultContext(context)
@@ -620,7 +662,9 @@ class PegInHoleScene:
             try:
                 self._simulator.AdvanceTo(t)
             except RuntimeError as error:
-                reason = f"simulator error at t = {context.get_time():.4f} s: {error}".splitlines()[0]
+                reason = f"simulator error at t = {context.get_time():.4f} s: {error}".splitlines()[
+                    0
+                ]
                 break
             reason = self._check_state(context.get_time())
         return self._trace(robot, reason)
@@ -646,13 +690,17 @@ class PegInHoleScene:
         # Generalized contact force of the planar joint = (F_x, F_y, moment about P1); shift the
         # moment to P: M_P = M_P1 + (r_P1 − r_P) × F.
         lever = q_top[:, :2] - q_peg[:, :2]
-        moment_p = generalized[:, 2] + lever[:, 0] * generalized[:, 1] - lever[:, 1] * generalized[:, 0]
+        moment_p = (
+            generalized[:, 2] + lever[:, 0] * generalized[:, 1] - lever[:, 1] * generalized[:, 0]
+        )
         contact = np.column_stack([generalized[:, 0], generalized[:, 1], moment_p])
         patches = self._aligned_patch_counts(times)
 
         finite = np.all(np.isfinite(state), axis=1) & np.all(np.isfinite(generalized), axis=1)
         too_strong = np.hypot(contact[:, 0], contact[:, 1]) > cfg.solver.max_contact_force_n
-        too_far = np.hypot(*(q_peg[:, :2] - self.hole_pose[:2]).T) > cfg.solver.max_distance_from_hole_m
+        too_far = (
+            np.hypot(*(q_peg[:, :2] - self.hole_pose[:2]).T) > cfg.solver.max_distance_from_hole_m
+        )
         penetration = self.penetration_depth(q_peg)
         too_deep = penetration > cfg.solver.max_penetration_m
         bad = ~finite | too_strong | too_far | too_deep
@@ -679,7 +727,11 @@ class PegInHoleScene:
                         f"{cfg.solver.max_distance_from_hole_m:g} m from the hole) at t = {times[first]:.4f} s"
                     )
             n = first
-        elif not reason and times.size and times[-1] < robot.duration_s - 0.5 * cfg.solver.time_step_s:
+        elif (
+            not reason
+            and times.size
+            and times[-1] < robot.duration_s - 0.5 * cfg.solver.time_step_s
+        ):
             reason = f"simulation stopped at t = {times[-1]:.4f} s before the trajectory ended"
         cut = slice(0, n)
         return Trace(

@@ -32,15 +32,23 @@ def override(config: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, A
                 raise ConfigError(f"sweep key {path!r}: {key!r} is not a config section")
             node = node[key]
         if leaf not in node:
-            raise ConfigError(f"sweep key {path!r}: no such config key {leaf!r}; allowed: {sorted(node)}")
-        node[leaf] = value.item() if isinstance(value, np.generic) else value  # Paramspace gives numpy scalars
+            raise ConfigError(
+                f"sweep key {path!r}: no such config key {leaf!r}; allowed: {sorted(node)}"
+            )
+        node[leaf] = (
+            value.item() if isinstance(value, np.generic) else value
+        )  # Paramspace gives numpy scalars
     return out
 
 
-def resolve(config: Mapping[str, Any], point: Mapping[str, Any] | None = None) -> tuple[SceneConfig, PlannerConfig]:
+def resolve(
+    config: Mapping[str, Any], point: Mapping[str, Any] | None = None
+) -> tuple[SceneConfig, PlannerConfig]:
     """Validated scene and planner configs of one sweep point."""
     data = override(config, point or {})
-    return from_mapping(SceneConfig, data["scene"], "scene"), from_mapping(PlannerConfig, data["planner"], "planner")
+    return from_mapping(SceneConfig, data["scene"], "scene"), from_mapping(
+        PlannerConfig, data["planner"], "planner"
+    )
 
 
 def wilson_interval(successes: int, trials: int, z: float = 1.96) -> tuple[float, float]:
@@ -49,19 +57,18 @@ def wilson_interval(successes: int, trials: int, z: float = 1.96) -> tuple[float
         return (math.nan, math.nan)
     p = successes / trials
     centre = (p + z * z / (2 * trials)) / (1 + z * z / trials)
-    half = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / (1 + z * z / trials)
+    half = (
+        z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / (1 + z * z / trials)
+    )
     return (max(0.0, centre - half), min(1.0, centre + half))
-
-
-def best_costs(rollouts: pd.DataFrame) -> pd.DataFrame:
-    """Best (lowest) inner cost per iteration of one run's rollout table."""
-    return rollouts[rollouts["is_best"]][["iteration", "cost"]].reset_index(drop=True)
 
 
 def cost_bands(runs: pd.DataFrame, group: str = "method") -> pd.DataFrame:
     """Mean, standard deviation and variance of the best cost per iteration across runs, per
     ``group`` level (the paper's Fig. 9 bands). ``runs`` has columns group, run_id, iteration, cost."""
-    stats = runs.groupby([group, "iteration"])["cost"].agg(["mean", "std", "var", "count", "median"])
+    stats = runs.groupby([group, "iteration"])["cost"].agg(
+        ["mean", "std", "var", "count", "median"]
+    )
     return stats.reset_index()
 
 
@@ -88,7 +95,9 @@ def success_table(summaries: pd.DataFrame, group: str = "method") -> pd.DataFram
                 "success_rate": successes / len(part),
                 "ci95_low": low,
                 "ci95_high": high,
-                "median_iterations_to_success": float(iterations.median()) if len(iterations) else math.nan,
+                "median_iterations_to_success": float(iterations.median())
+                if len(iterations)
+                else math.nan,
                 "mean_final_success_fraction": float(part["final_success_fraction"].mean()),
                 "diverged_rollout_fraction": float(part["diverged_fraction"].mean()),
                 "median_run_seconds": float(part["seconds"].median()),
@@ -99,6 +108,7 @@ def success_table(summaries: pd.DataFrame, group: str = "method") -> pd.DataFram
 
 def markdown_table(frame: pd.DataFrame, float_format: str = "{:.4g}") -> str:
     """A pipe table (no extra dependency)."""
+
     def cell(value: Any) -> str:
         if isinstance(value, (float, np.floating)):
             return "" if math.isnan(value) else float_format.format(value)

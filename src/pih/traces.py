@@ -11,10 +11,10 @@ from __future__ import annotations
 import json
 import os
 import tempfile
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -46,10 +46,18 @@ TRACE_COLUMNS: dict[str, Column] = {
     "spring_fy_n": ("N", "spring force on the peg at P1, y (eq. 10)"),
     "spring_moment_nm": ("N*m", "spring moment on the peg (eq. 10)"),
     "spring_energy_j": ("J", "spring energy E_RP (eq. 9)"),
-    "insertion_depth_m": ("m", "depth of P2 below the hole entrance (bottom of chamfer), Whitney's l"),
+    "insertion_depth_m": (
+        "m",
+        "depth of P2 below the hole entrance (bottom of chamfer), Whitney's l",
+    ),
     "penetration_m": ("m", "deepest geometric overlap of peg and hole (solver transients)"),
 }
-_POSE_FIELDS = {"robot": "q_robot", "peg": "q_peg", "peg_top": "q_peg_top", "peg_bottom": "q_peg_bottom"}
+_POSE_FIELDS = {
+    "robot": "q_robot",
+    "peg": "q_peg",
+    "peg_top": "q_peg_top",
+    "peg_bottom": "q_peg_bottom",
+}
 _TRIPLE_FIELDS = {
     "contact": ("contact_force", ("fx_n", "fy_n", "moment_nm")),
     "spring": ("spring_force", ("fx_n", "fy_n", "moment_nm")),
@@ -122,7 +130,10 @@ def write_table(
         field.with_metadata({"unit": columns[field.name][0], "description": columns[field.name][1]})
         for field in table.schema
     ]
-    metadata = {**(table.schema.metadata or {}), PROVENANCE_KEY: canonical_json(dict(provenance)).encode()}
+    metadata = {
+        **(table.schema.metadata or {}),
+        PROVENANCE_KEY: canonical_json(dict(provenance)).encode(),
+    }
     for key, value in (extra_metadata or {}).items():
         metadata[f"pih.{key}".encode()] = canonical_json(value).encode()
     table = pa.Table.from_arrays(table.columns, schema=pa.schema(fields, metadata=metadata))
@@ -134,7 +145,9 @@ def read_provenance(path: str | Path) -> dict[str, Any]:
     """The provenance record of a Parquet file, read from its schema without loading data."""
     metadata = pq.read_schema(path).metadata or {}
     if PROVENANCE_KEY not in metadata:
-        raise ValueError(f"{path}: no {PROVENANCE_KEY.decode()} record in the Parquet schema metadata")
+        raise ValueError(
+            f"{path}: no {PROVENANCE_KEY.decode()} record in the Parquet schema metadata"
+        )
     return json.loads(metadata[PROVENANCE_KEY])
 
 

@@ -42,14 +42,23 @@ class ValidationConfig:
     final_window_m: float = 0.001
 
     def validate(self, prefix: str = "") -> None:
-        for name in ("speed_m_per_s", "start_height_m", "robot_depth_m", "hole_depth_m", "final_depth_m", "final_window_m"):
+        for name in (
+            "speed_m_per_s",
+            "start_height_m",
+            "robot_depth_m",
+            "hole_depth_m",
+            "final_depth_m",
+            "final_window_m",
+        ):
             value = getattr(self, name)
             require(math.isfinite(value) and value > 0, prefix + name, "a finite value > 0", value)
 
 
 def validation_scene_config(scene: SceneConfig, config: ValidationConfig) -> SceneConfig:
     """The scene with a hole deep enough for a full insertion (same entrance height)."""
-    return scene.replace(hole__depth_m=config.hole_depth_m, hole__y_m=scene.hole.top_y_m - config.hole_depth_m)
+    return scene.replace(
+        hole__depth_m=config.hole_depth_m, hole__y_m=scene.hole.top_y_m - config.hole_depth_m
+    )
 
 
 def whitney_params(scene: SceneConfig, offset_m: float) -> whitney.WhitneyParams:
@@ -70,13 +79,17 @@ def whitney_params(scene: SceneConfig, offset_m: float) -> whitney.WhitneyParams
     return params
 
 
-def straight_down(scene: PegInHoleScene, offset_m: float, config: ValidationConfig) -> RobotTrajectory:
+def straight_down(
+    scene: PegInHoleScene, offset_m: float, config: ValidationConfig
+) -> RobotTrajectory:
     """Constant-speed descent with the spring base at x_H − offset (the paper's x_P < 0)."""
     hole = scene.config.hole
-    start = scene.peg_top_from_bottom([hole.x_m - offset_m, hole.top_y_m + config.start_height_m, 0.0])
+    start = scene.peg_top_from_bottom(
+        [hole.x_m - offset_m, hole.top_y_m + config.start_height_m, 0.0]
+    )
     travel = config.start_height_m + config.robot_depth_m
     duration = travel / config.speed_m_per_s
-    t = np.linspace(0.0, duration, max(2, int(round(duration / 0.01)) + 1))
+    t = np.linspace(0.0, duration, max(2, round(duration / 0.01) + 1))
     poses = np.tile(start, (t.size, 1))
     poses[:, 1] -= config.speed_m_per_s * t
     return RobotTrajectory(t, poses)
@@ -111,7 +124,9 @@ def first_peak_depth(sim: pd.DataFrame, params: whitney.WhitneyParams) -> float:
     z_c = whitney.chamfer_height(params)
     window = sim[(sim["depth_m"] >= -z_c - 1e-3) & (sim["depth_m"] <= z_c) & (sim["f_z_n"] > 0)]
     if window.empty:
-        raise ValueError("no contact force in the chamfer window: the peg never touched the chamfer")
+        raise ValueError(
+            "no contact force in the chamfer window: the peg never touched the chamfer"
+        )
     return float(window["depth_m"].iloc[int(np.argmax(window["f_z_n"].to_numpy()))])
 
 
@@ -123,14 +138,18 @@ class Comparison:
     aligned: pd.DataFrame  # depth_m (aligned), sim and theory F_x, F_z, θ
 
 
-def compare(trace: Trace, scene: SceneConfig, offset_m: float, config: ValidationConfig) -> Comparison:
+def compare(
+    trace: Trace, scene: SceneConfig, offset_m: float, config: ValidationConfig
+) -> Comparison:
     params = whitney_params(scene, offset_m)
     sim = to_whitney_frame(trace, scene.hole.x_m)
     peak = first_peak_depth(sim, params)
     shift = 0.0 - peak  # Whitney's chamfer peak is at l → 0⁻
     sim["depth_m"] = sim["depth_m"] + shift
     z_c = whitney.chamfer_height(params)
-    window = sim[(sim["depth_m"] >= -z_c) & (sim["depth_m"] <= config.final_depth_m)].reset_index(drop=True)
+    window = sim[(sim["depth_m"] >= -z_c) & (sim["depth_m"] <= config.final_depth_m)].reset_index(
+        drop=True
+    )
     theory = whitney.curve(params, window["depth_m"].to_numpy())
     aligned = pd.DataFrame(
         {
@@ -162,14 +181,20 @@ def compare(trace: Trace, scene: SceneConfig, offset_m: float, config: Validatio
     final = aligned[aligned["depth_m"] >= config.final_depth_m - config.final_window_m]
     complete = reached >= config.final_depth_m and not final.empty
     for name in ("f_x_n", "f_z_n", "theta_rad"):
-        metrics[f"final_{name.rsplit('_', 1)[0]}_sim"] = float(final[f"sim_{name}"].mean()) if complete else math.nan
+        metrics[f"final_{name.rsplit('_', 1)[0]}_sim"] = (
+            float(final[f"sim_{name}"].mean()) if complete else math.nan
+        )
         metrics[f"final_{name.rsplit('_', 1)[0]}_theory"] = (
             float(final[f"theory_{name}"].mean()) if complete else math.nan
         )
     for key in ("initial_f_x", "initial_f_z"):
-        metrics[f"rel_err_{key}_pct"] = _relative_error(metrics[f"{key}_sim_n"], metrics[f"{key}_theory_n"])
+        metrics[f"rel_err_{key}_pct"] = _relative_error(
+            metrics[f"{key}_sim_n"], metrics[f"{key}_theory_n"]
+        )
     for key in ("final_f_x", "final_f_z", "final_theta"):
-        metrics[f"rel_err_{key}_pct"] = _relative_error(metrics[f"{key}_sim"], metrics[f"{key}_theory"])
+        metrics[f"rel_err_{key}_pct"] = _relative_error(
+            metrics[f"{key}_sim"], metrics[f"{key}_theory"]
+        )
     return Comparison(metrics=metrics, aligned=aligned)
 
 
@@ -205,13 +230,22 @@ def theory_frame(params: whitney.WhitneyParams, max_depth_m: float) -> pd.DataFr
 def phase_markers(params: whitney.WhitneyParams) -> dict[str, float]:
     """The paper's figure markers: CFC, 1PC, S2PC, E2PC (depth, m)."""
     bounds = whitney.phase_boundaries(params)
-    labels = {"CFC": "chamfer_start", "1PC": "one_point_start", "S2PC": "two_point_start", "E2PC": "two_point_end"}
+    labels = {
+        "CFC": "chamfer_start",
+        "1PC": "one_point_start",
+        "S2PC": "two_point_start",
+        "E2PC": "two_point_end",
+    }
     return {label: bounds[key] for label, key in labels.items() if key in bounds}
 
 
-def summary_rows(metrics: list[dict[str, float | str]], pooled: dict[str, float], contact_model: str) -> list[dict]:
+def summary_rows(
+    metrics: list[dict[str, float | str]], pooled: dict[str, float], contact_model: str
+) -> list[dict]:
     """Per-offset metric rows plus a pooled row, tagged with the contact model."""
-    rows = [{"contact_model": contact_model, "offset": f"{1e3 * float(m['offset_m']):g} mm", **m} for m in metrics]
+    rows = [
+        {"contact_model": contact_model, "offset": f"{1e3 * float(m['offset_m']):g} mm", **m}
+        for m in metrics
+    ]
     rows.append({"contact_model": contact_model, "offset": "pooled", **pooled})
     return rows
-

@@ -31,16 +31,24 @@ class ValidationSection:
 
     def validate(self, prefix: str = "") -> None:
         if not self.offsets_m or any(not (0 < o < 0.01) for o in self.offsets_m):
-            raise ConfigError(f"{prefix}offsets_m: {self.offsets_m!r}; expected lateral offsets in (0, 0.01) m")
+            raise ConfigError(
+                f"{prefix}offsets_m: {self.offsets_m!r}; expected lateral offsets in (0, 0.01) m"
+            )
         allowed = ("hydroelastic", "hydroelastic_with_fallback", "point")
         bad = [m for m in self.contact_models if m not in allowed]
         if not self.contact_models or bad:
-            raise ConfigError(f"{prefix}contact_models: {list(self.contact_models)!r}; expected a non-empty list of {list(allowed)}")
+            raise ConfigError(
+                f"{prefix}contact_models: {list(self.contact_models)!r}; expected a non-empty list of {list(allowed)}"
+            )
         self.experiment.validate(prefix + "experiment.")
 
 
 def config_schema() -> dict[str, Any]:
-    sweep_levels = {"type": "array", "minItems": 1, "items": {"type": ["number", "string", "integer", "boolean"]}}
+    sweep_levels = {
+        "type": "array",
+        "minItems": 1,
+        "items": {"type": ["number", "string", "integer", "boolean"]},
+    }
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "title": "pih study configuration",
@@ -73,7 +81,9 @@ def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> N
     names = [path.rsplit(".", 1)[-1] for path in config["sweep"]]
     duplicated = sorted({n for n in names if names.count(n) > 1})
     if duplicated:
-        raise ConfigError(f"sweep: keys must end in distinct names (they name directories); repeated: {duplicated}")
+        raise ConfigError(
+            f"sweep: keys must end in distinct names (they name directories); repeated: {duplicated}"
+        )
     for point in points or [{}]:
         data = override(config, point)
         from_mapping(SceneConfig, data["scene"], "scene")
@@ -92,7 +102,11 @@ def logged(path: str) -> Iterator[None]:
         yield
 
 
-def job_provenance(smk: Any, step: str, *, point: Mapping[str, Any] | None = None, **fields: Any) -> dict[str, Any]:
+def job_provenance(
+    smk: Any, step: str, *, point: Mapping[str, Any] | None = None, **fields: Any
+) -> dict[str, Any]:
     """Provenance of a Snakemake job: the step, its wildcards/sweep point and input hashes."""
     wildcards = {k: v for k, v in dict(smk.wildcards).items()}
-    return provenance.record(step, point=point if point is not None else wildcards, inputs=list(smk.input), **fields)
+    return provenance.record(
+        step, point=point if point is not None else wildcards, inputs=list(smk.input), **fields
+    )

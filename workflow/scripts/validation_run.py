@@ -10,7 +10,9 @@ from pih.workflow import ValidationSection, job_provenance, logged
 with logged(snakemake.log[0]):
     section = from_mapping(ValidationSection, snakemake.params.validation, "validation")
     base = from_mapping(SceneConfig, snakemake.params.scene, "scene")
-    scene_config = validation_scene_config(base.replace(solver__contact_model=snakemake.wildcards.model), section.experiment)
+    scene_config = validation_scene_config(
+        base.replace(solver__contact_model=snakemake.wildcards.model), section.experiment
+    )
     offset = float(snakemake.wildcards.offset)
     trace = run_insertion(PegInHoleScene(scene_config), offset, section.experiment)
     record = job_provenance(
@@ -21,4 +23,6 @@ with logged(snakemake.log[0]):
     )
     write_trace(trace, snakemake.output.trace, record)
     record_insertion(snakemake.output.recording, trace, scene_config, record["run_id"], record)
-    print(f"{snakemake.wildcards.model} offset {offset} m: {trace.status} {trace.reason}; {len(trace)} steps, final depth {trace.insertion_depth_m[-1]:.5f} m")
+    print(
+        f"{snakemake.wildcards.model} offset {offset} m: {trace.status} {trace.reason}; {len(trace)} steps, final depth {trace.insertion_depth_m[-1]:.5f} m"
+    )

@@ -2,9 +2,9 @@
 
 from pih import whitney
 from pih.config import from_mapping
+from pih.scene import SceneConfig
 from pih.traces import write_table
 from pih.validation import whitney_params
-from pih.scene import SceneConfig
 from pih.workflow import ValidationSection, job_provenance, logged
 
 CURVE_COLUMNS = {
@@ -23,6 +23,17 @@ with logged(snakemake.log[0]):
     offset = float(snakemake.wildcards.offset)
     params = whitney_params(scene, offset)
     curve = whitney.curve(params, max_depth_m=scene.peg.length_m)
-    record = job_provenance(snakemake, "whitney_curve", config={"scene": snakemake.params.scene}, extra={"whitney": params.__dict__})
-    write_table(curve, snakemake.output.curve, record, CURVE_COLUMNS, extra_metadata={"phase_boundaries": whitney.phase_boundaries(params)})
+    record = job_provenance(
+        snakemake,
+        "whitney_curve",
+        config={"scene": snakemake.params.scene},
+        extra={"whitney": params.__dict__},
+    )
+    write_table(
+        curve,
+        snakemake.output.curve,
+        record,
+        CURVE_COLUMNS,
+        extra_metadata={"phase_boundaries": whitney.phase_boundaries(params)},
+    )
     print(f"offset {offset} m: {len(curve)} points, boundaries {whitney.phase_boundaries(params)}")
