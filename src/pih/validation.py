@@ -21,6 +21,8 @@ from pih import whitney
 from pih.config import require
 from pih.scene import PegInHoleScene, RobotTrajectory, SceneConfig, Trace
 
+ENTRANCE_SIDE_M = 1e-9
+
 
 @dataclass(frozen=True)
 class ValidationConfig:
@@ -144,7 +146,9 @@ def compare(
     params = whitney_params(scene, offset_m)
     sim = to_whitney_frame(trace, scene.hole.x_m)
     peak = first_peak_depth(sim, params)
-    shift = 0.0 - peak  # Whitney's chamfer peak is at l → 0⁻
+    # Whitney's chamfer peak is at l → 0⁻: put the simulated peak just before the entrance, not
+    # on l = 0 itself, where the theory has already jumped to its one-point value.
+    shift = -ENTRANCE_SIDE_M - peak
     sim["depth_m"] = sim["depth_m"] + shift
     z_c = whitney.chamfer_height(params)
     window = sim[(sim["depth_m"] >= -z_c) & (sim["depth_m"] <= config.final_depth_m)].reset_index(

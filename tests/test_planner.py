@@ -1,0 +1,160 @@
+"""Costs (eq. 11, 15), the outer level, sensing, and Algorithm 1's bookkeeping."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from pih.config import ConfigError, from_mapping, to_mapping
+from pih.dmp import DmpConfig
+from pih.optimizers import OptimizerConfig
+from pih.planner import (
+    CostConfig,
+    Planner,
+    PlannerConfig,
+    SensingConfig,
+    hole_distance,
+    inner_cost,
+    outer_goal,
+    replace,
+)
+from pih.scene import SceneConfig
+
+SENSING = SensingConfig(hole_std=(0.005, 0.001, 0.02))
+
+
+def test_inner_cost_terms_match_eq_11():
+    weights = np.array([0.1, -0.2, 0.3])
+    q_robot = np.array([[0.0, 0.05, 0.0], [0.01, 0.05, 0.0]])
+    q_top = np.array([[0.0, 0.05, 0.0], [0.0, 0.049, 0.01]])
+    q_bottom = np.array([[0.0, 0.005, 0.0], [0.002, -0.01, 0.0]])
+    sensed = np.array([0.005, -0.01, 0.0])
+    terms = inner_cost(
+        weights, q_robot, q_top, q_bottom, sensed, (1000.0, 1000.0, 1.0), CostConfig(), SENSING
+    )
+    assert terms.regularization == pytest.approx(1e4 * 0.14)
+    energy = 0.5 * (1000 * 0.01**2 + 1000 * 0.001**2 + 1.0 * 0.01**2)
+    assert terms.spring_energy == pytest.approx(20 * energy)
+    distance = ((0.005 / 0.005) ** 2 + (0.015 / 0.001) ** 2) + ((0.003 / 0.005) ** 2)
+    assert terms.hole_distance == pytest.approx(10 * distance)
+    assert terms.total == pytest.approx(
+        terms.regularization + terms.spring_energy + terms.hole_distance
+    )
+
+
+def test_outer_goal_is_the_explored_pose_nearest_the_sensed_hole():
+    explored = np.array(
+        [
+            [0.005, 0.0, 0.0],  # beside the hole at the sensed x, on the surface
+            [0.0, -0.009, 0.0],  # in the hole, 5 mm from the sensed x
+            [0.0, -0.009, 0.3],  # in the hole but tilted
+        ]
+    )
+    sensed = np.array([0.005, -0.01, 0.0])
+    assert np.array_equal(outer_goal(explored, sensed, SENSING), explored[1])
+    # With a loose depth belief the pose beside the hole would win: the choice of Σ_H matters.
+    loose = SensingConfig(hole_std=(0.005, 0.05, 0.02))
+    assert np.array_equal(outer_goal(explored, sensed, loose), explored[0])
+    assert hole_distance(explored[1], sensed, SENSING) == pytest.approx(1.0 + 1.0)
+
+
+def test_sensed_hole_is_seeded_and_biased():
+    planner = Planner.from_configs(SceneConfig(), replace(PlannerConfig(), iterations=1))
+    draws = np.array([planner.sense_hole(np.random.default_rng(s)) for s in range(400)])
+    assert np.all(draws[:, 1:] == planner.scene.hole_pose[1:])
+    assert draws[:, 0].mean() == pytest.approx(0.005, abs=0.001)
+    assert draws[:, 0].std() == pytest.approx(0.005, rel=0.15)
+    again = planner.sense_hole(np.random.default_rng(3))
+    assert np.array_equal(again, draws[3])
+
+
+@pytest.fixture(scope="module")
+def tiny_runs():
+    config = replace(
+        PlannerConfig(),
+        iterations=2,
+        dmp=DmpConfig(duration_s=1.0),
+        optimizer=OptimizerConfig(population_size=3, sigma=0.3),
+        settle_s=0.1,
+    )
+    scene = SceneConfig()
+    first = Planner.from_configs(scene, config).run()
+    second = Planner.from_configs(scene, config).run()
+    one_level = Planner.from_configs(scene, replace(config, method="one_level")).run()
+    return first, second, one_level
+
+
+def test_run_record_is_complete_and_deterministic(tiny_runs):
+    first, second, _ = tiny_runs
+    rollouts = first.rollouts
+    assert len(rollouts) == 2 * 3
+    assert rollouts.groupby("iteration")["is_best"].sum().tolist() == [1, 1]
+    ok = rollouts["status"] == "ok"
+    assert np.allclose(
+        rollouts.loc[ok, "cost"],
+        rollouts.loc[ok, ["cost_regularization", "cost_spring_energy", "cost_hole_distance"]].sum(
+            axis=1
+        ),
+    )
+    assert set(first.best_paths["iteration"]) == {1, 2}
+    assert first.rollouts.equals(second.rollouts)
+    assert first.best_paths.equals(second.best_paths)
+
+
+def test_first_iteration_goal_is_the_sensed_hole_for_both_methods(tiny_runs):
+    bilevel, _, one_level = tiny_runs
+    for record in (bilevel, one_level):
+        first = record.rollouts[record.rollouts["iteration"] == 1].iloc[0]
+        # q_R(T) is the P1 pose of an upright peg whose tip is at the sensed hole.
+        assert first["goal_x_m"] == pytest.approx(first["sensed_hole_x_m"])
+        assert first["goal_y_m"] == pytest.approx(first["sensed_hole_y_m"] + 0.045)
+    # One-level keeps goal = sensed hole; bilevel moves it to an explored tip pose.
+    later = one_level.rollouts[one_level.rollouts["iteration"] == 2].iloc[0]
+    assert later["goal_x_m"] == pytest.approx(later["sensed_hole_x_m"])
+    moved = bilevel.rollouts[bilevel.rollouts["iteration"] == 2].iloc[0]
+    assert moved["goal_y_m"] != pytest.approx(moved["sensed_hole_y_m"] + 0.045)
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda c: c.update(method="two_level"), r"planner\.method"),
+        (lambda c: c.update(iterations=0), r"planner\.iterations"),
+        (lambda c: c["optimizer"].update(name="simplex"), r"planner\.optimizer\.name"),
+        (lambda c: c["optimizer"].update(population_size=0), r"planner\.optimizer\.population"),
+        (
+            lambda c: c["optimizer"].update(elite_fraction=1.5),
+            r"planner\.optimizer\.elite_fraction",
+        ),
+        (
+            lambda c: c["optimizer"].update(elite_fraction=0.0),
+            r"planner\.optimizer\.elite_fraction",
+        ),
+        (
+            lambda c: c["sensing"].update(hole_std=[0.005, 0.0, 0.02]),
+            r"planner\.sensing\.hole_std.*singular",
+        ),
+        (lambda c: c["dmp"].update(n_basis=0), r"planner\.dmp\.n_basis"),
+    ],
+)
+def test_bad_planner_config_is_rejected_before_simulation(edit, message):
+    data = to_mapping(PlannerConfig())
+    edit(data)
+    with pytest.raises(ConfigError, match=message):
+        from_mapping(PlannerConfig, data, "planner")
+
+
+def test_planner_config_defaults_are_table_4():
+    config = PlannerConfig()
+    assert (
+        config.costs.regularization,
+        config.costs.spring_energy,
+        config.costs.hole_distance,
+    ) == (
+        1e4,
+        20.0,
+        10.0,
+    )
+    assert (config.sensing.bias_m, config.sensing.std_m) == (0.005, 0.005)
+    assert (config.optimizer.population_size, config.iterations) == (10, 50)
+    assert dataclasses.asdict(SceneConfig().spring)["stiffness"] == (1000.0, 1000.0, 1.0)

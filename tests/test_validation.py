@@ -1,0 +1,109 @@
+"""The hydroelastic-vs-Whitney comparison on synthetic traces with known answers."""
+
+import numpy as np
+import pytest
+
+from pih import whitney
+from pih.scene import SceneConfig, Trace
+from pih.validation import (
+    ValidationConfig,
+    compare,
+    pooled_correlation,
+    to_whitney_frame,
+    whitney_params,
+)
+
+SCENE = SceneConfig()
+CONFIG = ValidationConfig(final_depth_m=0.03)
+
+
+def synthetic_trace(offset_m: float, delay_m: float) -> Trace:
+    """A 'simulation' that is exactly Whitney's curve, reached ``delay_m`` deeper, with the peg
+    on the −x side of the hole (the paper's x_P < 0) in simulator sign conventions."""
+    params = whitney_params(SCENE, offset_m)
+    z_c = whitney.chamfer_height(params)
+    # Regular 10 µm sampling, with the chamfer's last sample at l → 0⁻ (its peak).
+    grid = np.concatenate([np.linspace(-z_c, -1e-12, 100), np.arange(1e-5, 0.04, 1e-5)])
+    theory = whitney.curve(params, grid)
+    depth = grid + delay_m
+    n = depth.size
+    zeros = np.zeros((n, 3))
+    q_peg = zeros.copy()
+    q_peg[:, 2] = theory["theta_rad"]  # leaning toward −x (the error side) is counter-clockwise
+    q_robot = zeros.copy()
+    q_robot[:, 0] = -offset_m
+    force = np.column_stack(
+        [-theory["f_x_n"], theory["f_z_n"], np.zeros(n)]
+    )  # +u = −x, F_z = upward contact force
+    return Trace(
+        time_s=np.arange(n) * 0.01,
+        q_robot=q_robot,
+        q_peg=q_peg,
+        q_peg_top=zeros,
+        q_peg_bottom=zeros,
+        contact_force=force,
+        contact_patches=np.ones(n, dtype=np.int64),
+        spring_force=zeros,
+        spring_energy_j=np.zeros(n),
+        insertion_depth_m=depth,
+        penetration_m=np.zeros(n),
+    )
+
+
+def test_sign_conventions_map_to_whitney():
+    trace = synthetic_trace(0.001, 0.0)
+    frame = to_whitney_frame(trace, hole_x_m=0.0)
+    one_point = frame[(frame["depth_m"] > 0.0005) & (frame["depth_m"] < 0.002)]
+    assert np.all(one_point["f_x_n"] < 0) and np.all(one_point["f_z_n"] > 0)
+    assert np.all(one_point["theta_rad"] > 0)
+
+
+@pytest.mark.parametrize("offset_m", [0.0005, 0.001])
+def test_perfect_simulation_has_r_one_zero_errors_and_reports_the_delay(offset_m):
+    delay = 0.0004
+    result = compare(synthetic_trace(offset_m, delay), SCENE, offset_m, CONFIG)
+    metrics = result.metrics
+    assert metrics["alignment_shift_m"] == pytest.approx(-delay, abs=1e-8)
+    assert metrics["r_f_x"] == pytest.approx(1.0, abs=1e-9)
+    assert metrics["r_f_z"] == pytest.approx(1.0, abs=1e-9)
+    for key in ("initial_f_x", "initial_f_z", "final_f_x", "final_f_z", "final_theta"):
+        assert metrics[f"rel_err_{key}_pct"] == pytest.approx(0.0, abs=1e-4), key
+    assert pooled_correlation([result.aligned])["r_f_z"] == pytest.approx(1.0, abs=1e-9)
+
+
+def test_a_scaled_force_shows_up_as_relative_error_not_in_r():
+    trace = synthetic_trace(0.001, 0.0)
+    trace.contact_force[:, 1] *= 1.1
+    metrics = compare(trace, SCENE, 0.001, CONFIG).metrics
+    assert metrics["r_f_z"] == pytest.approx(1.0, abs=1e-9)
+    assert metrics["rel_err_final_f_z_pct"] == pytest.approx(10.0, rel=1e-6)
+    assert metrics["rel_err_final_f_x_pct"] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_run_that_stops_short_has_no_final_values():
+    trace = synthetic_trace(0.001, 0.0)
+    keep = trace.insertion_depth_m < 0.01
+    for name in (
+        "time_s",
+        "q_robot",
+        "q_peg",
+        "q_peg_top",
+        "q_peg_bottom",
+        "contact_force",
+        "contact_patches",
+        "spring_force",
+        "spring_energy_j",
+        "insertion_depth_m",
+        "penetration_m",
+    ):
+        setattr(trace, name, getattr(trace, name)[keep])
+    metrics = compare(trace, SCENE, 0.001, CONFIG).metrics
+    assert np.isnan(metrics["rel_err_final_f_z_pct"]) and np.isfinite(metrics["r_f_x"])
+
+
+def test_offsets_outside_the_theory_are_rejected():
+    with pytest.raises(whitney.WhitneyInvalidError, match="offset"):
+        whitney_params(SCENE, 0.005)  # beyond the 2.5 mm chamfer
+    steep = SCENE.replace(material__friction=1.2)  # tan 45° <= mu: cannot slide down the chamfer
+    with pytest.raises(whitney.WhitneyInvalidError):
+        whitney_params(steep, 0.001)
