@@ -15,6 +15,7 @@ configfile: "config/config.yaml"
 include: "workflow/rules/common.smk"
 include: "workflow/rules/validation.smk"
 include: "workflow/rules/planning.smk"
+include: "workflow/rules/report.smk"
 
 
 rule all:
@@ -22,3 +23,4 @@ rule all:
     input:
         rules.validation_compare.output,
         rules.planning_aggregate.output,
+        rules.provenance_index.output,

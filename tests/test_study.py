@@ -39,16 +39,24 @@ def test_wilson_interval_known_values():
     assert all(math.isnan(v) for v in wilson_interval(0, 0))
 
 
-def test_bands_and_success_table():
+def test_bands_and_success_table_per_method_and_dimension():
     runs = pd.DataFrame(
-        {"method": ["a", "a", "b", "b"], "iteration": [1, 1, 1, 1], "cost": [1.0, 3.0, 10.0, 10.0]}
+        {
+            "method": ["a", "a", "b", "b"],
+            "iteration": [1, 1, 1, 1],
+            "cost": [1.0, 3.0, 10.0, 12.0],
+            "planner.seed": ["0", "1", "0", "1"],
+        }
     )
-    bands = cost_bands(runs)
-    a = bands[bands["method"] == "a"].iloc[0]
-    assert (a["mean"], a["var"], a["count"]) == (2.0, 2.0, 2)
+    bands = cost_bands(runs, ["planner.method", "planner.seed"])
+    overall = bands[(bands["dimension"] == "all") & (bands["method"] == "a")].iloc[0]
+    assert (overall["mean"], overall["var"], overall["count"]) == (2.0, 2.0, 2)
+    per_seed = bands[(bands["dimension"] == "planner.seed") & (bands["method"] == "b")]
+    assert per_seed.set_index("level")["mean"].to_dict() == {"0": 10.0, "1": 12.0}
     summaries = pd.DataFrame(
         {
             "method": ["a", "a", "b"],
+            "planner.seed": ["0", "1", "0"],
             "succeeded": [True, False, True],
             "success_iteration": [4, None, 10],
             "final_success_fraction": [1.0, 0.0, 0.5],
@@ -56,12 +64,13 @@ def test_bands_and_success_table():
             "seconds": [1.0, 2.0, 3.0],
         }
     )
-    table = success_table(summaries).set_index("method")
-    assert (
-        table.loc["a", "success_rate"] == 0.5
-        and table.loc["a", "median_iterations_to_success"] == 4
-    )
-    assert table.loc["b", "mean_final_success_fraction"] == 0.5
+    table = success_table(summaries, ["planner.method", "planner.seed"])
+    overall = table[table["dimension"] == "all"].set_index("method")
+    assert overall.loc["a", "success_rate"] == 0.5
+    assert overall.loc["a", "median_iterations_to_success"] == 4
+    assert overall.loc["b", "mean_final_success_fraction"] == 0.5
+    seed_one = table[(table["dimension"] == "planner.seed") & (table["level"] == "1")]
+    assert seed_one["method"].tolist() == ["a"] and seed_one["successes"].tolist() == [0]
 
 
 def test_final_success_fraction_uses_the_last_best_rollouts():

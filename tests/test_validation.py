@@ -107,3 +107,24 @@ def test_offsets_outside_the_theory_are_rejected():
     steep = SCENE.replace(material__friction=1.2)  # tan 45° <= mu: cannot slide down the chamfer
     with pytest.raises(whitney.WhitneyInvalidError):
         whitney_params(steep, 0.001)
+
+
+def test_real_insertion_matches_whitney_in_shape():
+    """Regression check on the physics: a fast (10 mm/s) straight-down insertion at 1 mm."""
+    from pih.scene import PegInHoleScene
+    from pih.validation import run_insertion, validation_scene_config
+
+    config = ValidationConfig(
+        speed_m_per_s=0.01, robot_depth_m=0.02, hole_depth_m=0.03, final_depth_m=0.012
+    )
+    scene_config = validation_scene_config(SCENE, config)
+    trace = run_insertion(PegInHoleScene(scene_config), 0.001, config)
+    assert trace.ok, trace.reason
+    result = compare(trace, scene_config, 0.001, config)
+    one_point = result.aligned[result.aligned["depth_m"].between(0.0015, 0.0025)]
+    # Whitney's one-point phase: F_x < 0, F_z > 0, tilt 0.0142 rad toward the error side.
+    assert one_point["sim_f_x_n"].median() < 0 < one_point["sim_f_z_n"].median()
+    assert one_point["sim_theta_rad"].median() == pytest.approx(0.0142, rel=0.05)
+    assert result.metrics["r_f_x"] > 0.9
+    # The fillet rounds the chamfer's lower end: the simulated peak comes < 1 mm early.
+    assert 0.0 < result.metrics["alignment_shift_m"] < 0.001

@@ -36,27 +36,29 @@ def save(fig: plt.Figure, png: str | Path, pdf: str | Path | None = None) -> Non
 
 
 def validation_curves(
-    aligned: Mapping[tuple[str, float], pd.DataFrame],
+    simulated: Mapping[tuple[str, float], pd.DataFrame],
     theory: Mapping[float, pd.DataFrame],
     markers: Mapping[float, Mapping[str, float]],
     quantity: str,
 ) -> plt.Figure:
-    """One panel per offset: Whitney's curve, the aligned simulations, phase markers."""
+    """One panel per offset: Whitney's curve, the aligned simulations (over the theory's depth
+    range), and the phase markers."""
     offsets = sorted(theory)
     label, title = QUANTITIES[quantity]
     fig, axes = plt.subplots(1, len(offsets), figsize=(4.2 * len(offsets), 3.6), squeeze=False)
     for ax, offset in zip(axes[0], offsets):
         curve = theory[offset]
         ax.plot(1e3 * curve["depth_m"], curve[quantity], color="black", lw=1.5, label="Whitney")
-        for (model, off), frame in aligned.items():
+        shown = (curve["depth_m"].min(), curve["depth_m"].max())
+        for (model, off), frame in simulated.items():
             if off == offset:
+                frame = frame[frame["depth_m"].between(*shown)]
                 ax.plot(
                     1e3 * frame["depth_m"],
-                    frame[f"sim_{quantity}"],
+                    frame[quantity],
                     label=f"Drake {model}",
                     **MODEL_STYLE.get(model, {}),
                 )
-        shown = (curve["depth_m"].min(), curve["depth_m"].max())
         for name, depth in markers[offset].items():
             if not shown[0] <= depth <= shown[1]:
                 continue

@@ -26,6 +26,7 @@ from pih.traces import write_with
 
 APPLICATION_ID = "pih"
 SPATIAL_PERIOD_S = 0.02  # spatial entities are logged at 50 Hz; scalar series at every step
+ROBOT_AXIS_M = 0.005  # the robot frame is drawn as its y axis (the peg's axis at rest), 5 mm long
 
 
 def hole_outline(hole: HoleConfig) -> list[NDArray[np.float64]]:
@@ -108,9 +109,14 @@ def record_insertion(
                         [peg_outline(trace.q_peg[k], scene.peg.diameter_m, scene.peg.length_m)]
                     ),
                 )
+                theta = trace.q_robot[k, 2]
                 rec.log(
                     "world/robot",
-                    rr.Points2D([trace.q_robot[k, :2]], radii=0.0008, colors=[(230, 80, 40)]),
+                    rr.Arrows2D(
+                        origins=[trace.q_robot[k, :2]],
+                        vectors=[[-ROBOT_AXIS_M * np.sin(theta), ROBOT_AXIS_M * np.cos(theta)]],
+                        colors=[(230, 80, 40)],
+                    ),
                 )
                 rec.log(
                     "world/spring",

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -19,6 +20,9 @@ import pandas as pd
 from pih.config import ConfigError, from_mapping
 from pih.planner import PlannerConfig
 from pih.scene import SceneConfig
+from pih.traces import read_metadata, read_provenance
+
+METHOD_KEY = "planner.method"
 
 
 def override(config: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, Any]:
@@ -63,15 +67,6 @@ def wilson_interval(successes: int, trials: int, z: float = 1.96) -> tuple[float
     return (max(0.0, centre - half), min(1.0, centre + half))
 
 
-def cost_bands(runs: pd.DataFrame, group: str = "method") -> pd.DataFrame:
-    """Mean, standard deviation and variance of the best cost per iteration across runs, per
-    ``group`` level (the paper's Fig. 9 bands). ``runs`` has columns group, run_id, iteration, cost."""
-    stats = runs.groupby([group, "iteration"])["cost"].agg(
-        ["mean", "std", "var", "count", "median"]
-    )
-    return stats.reset_index()
-
-
 def final_success_fraction(rollouts: pd.DataFrame, last: int = 10) -> float:
     """Fraction of the last ``last`` iterations whose best rollout succeeded: whether a run
     *stays* successful, which a lucky sensed-hole draw in one iteration cannot fake."""
@@ -79,31 +74,126 @@ def final_success_fraction(rollouts: pd.DataFrame, last: int = 10) -> float:
     return float(best["success"].tail(last).mean())
 
 
-def success_table(summaries: pd.DataFrame, group: str = "method") -> pd.DataFrame:
-    """Success rate with Wilson 95 % interval, median iterations to success and the mean
-    final-success fraction, per group."""
-    rows = []
-    for level, part in summaries.groupby(group):
-        successes = int(part["succeeded"].sum())
-        low, high = wilson_interval(successes, len(part))
-        iterations = part.loc[part["succeeded"], "success_iteration"]
-        rows.append(
+_LEVEL_COLUMNS = {
+    "method": ("", "planning method"),
+    "dimension": ("", "sweep dimension the row is split by ('all': not split)"),
+    "level": ("", "level of that dimension"),
+}
+BEST_COST_COLUMNS: dict[str, tuple[str, str]] = {
+    "iteration": ("1", "iteration"),
+    "cost": ("1", "best inner cost J_inn of the iteration (eq. 11)"),
+    "method": ("", "planning method"),
+    "run": ("", "run directory (sweep point)"),
+}
+BAND_COLUMNS: dict[str, tuple[str, str]] = {
+    **_LEVEL_COLUMNS,
+    "iteration": ("1", "iteration"),
+    "mean": ("1", "mean over runs of the best J_inn"),
+    "std": ("1", "standard deviation over runs"),
+    "var": ("1", "variance over runs"),
+    "count": ("1", "runs"),
+    "median": ("1", "median over runs"),
+}
+SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
+    **_LEVEL_COLUMNS,
+    "runs": ("1", "planning runs"),
+    "successes": ("1", "runs whose best rollout succeeded in some iteration"),
+    "success_rate": ("1", "successes / runs"),
+    "ci95_low": ("1", "Wilson 95 % interval, low"),
+    "ci95_high": ("1", "Wilson 95 % interval, high"),
+    "median_iterations_to_success": ("1", "median first successful iteration"),
+    "mean_final_success_fraction": ("1", "mean fraction of the last 10 iterations that succeeded"),
+    "diverged_rollout_fraction": ("1", "mean fraction of diverged rollouts"),
+    "median_run_seconds": ("s", "median wall time per run"),
+}
+
+
+def run_tables(
+    rollout_files: Iterable[str | Path], sweep_keys: list[str], default_method: str
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """From planning-run records: the best cost per iteration of every run (long table) and one
+    summary row per run, each tagged with the run's method and sweep levels."""
+    bests, summaries = [], []
+    for path in map(Path, rollout_files):
+        point = read_provenance(path)["sweep_point"]
+        run = read_metadata(path, "run")
+        rollouts = pd.read_parquet(path)
+        tags = {"method": point.get(METHOD_KEY, default_method), "run": path.parent.name}
+        tags.update({key: str(point[key]) for key in sweep_keys if key != METHOD_KEY})
+        best = rollouts[rollouts["is_best"]][["iteration", "cost"]]
+        bests.append(best.assign(**tags))
+        summaries.append(
             {
-                group: level,
-                "runs": len(part),
-                "successes": successes,
-                "success_rate": successes / len(part),
-                "ci95_low": low,
-                "ci95_high": high,
-                "median_iterations_to_success": float(iterations.median())
-                if len(iterations)
-                else math.nan,
-                "mean_final_success_fraction": float(part["final_success_fraction"].mean()),
-                "diverged_rollout_fraction": float(part["diverged_fraction"].mean()),
-                "median_run_seconds": float(part["seconds"].median()),
+                **tags,
+                "succeeded": run["success_iteration"] is not None,
+                "success_iteration": run["success_iteration"],
+                "final_success_fraction": final_success_fraction(rollouts),
+                "diverged_fraction": float((rollouts["status"] != "ok").mean()),
+                "seconds": run["seconds"],
             }
         )
-    return pd.DataFrame(rows)
+    return pd.concat(bests, ignore_index=True), pd.DataFrame(summaries)
+
+
+def level_columns(sweep_keys: list[str]) -> dict[str, tuple[str, str]]:
+    """Unit specs of the per-run sweep-level columns of :func:`run_tables`' outputs."""
+    return {key: ("", f"sweep level of {key}") for key in sweep_keys if key != METHOD_KEY}
+
+
+def _by_dimension(frame: pd.DataFrame, sweep_keys: list[str], table) -> pd.DataFrame:
+    """``table(part)`` per method overall and per method × level of every other dimension."""
+    parts = [table(frame).assign(dimension="all", level="all")]
+    for key in sweep_keys:
+        if key != METHOD_KEY:
+            parts += [
+                table(part).assign(dimension=key, level=level) for level, part in frame.groupby(key)
+            ]
+    return pd.concat(parts, ignore_index=True)
+
+
+def cost_bands(runs: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
+    """Mean, standard deviation, variance and median of the best cost per iteration, per method,
+    overall and per level of every other sweep dimension (the paper's Fig. 9 bands)."""
+
+    def bands(part: pd.DataFrame) -> pd.DataFrame:
+        stats = part.groupby(["method", "iteration"])["cost"].agg(
+            ["mean", "std", "var", "count", "median"]
+        )
+        return stats.reset_index()
+
+    return _by_dimension(runs, sweep_keys, bands)
+
+
+def success_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
+    """Per method, overall and per level of every other dimension: success rate (first success
+    within the budget) with a Wilson 95 % interval, median iterations to success, mean
+    final-success fraction, diverged-rollout fraction and median seconds per run."""
+
+    def table(part: pd.DataFrame) -> pd.DataFrame:
+        rows = []
+        for method, runs in part.groupby("method"):
+            successes = int(runs["succeeded"].sum())
+            low, high = wilson_interval(successes, len(runs))
+            iterations = runs.loc[runs["succeeded"], "success_iteration"]
+            rows.append(
+                {
+                    "method": method,
+                    "runs": len(runs),
+                    "successes": successes,
+                    "success_rate": successes / len(runs),
+                    "ci95_low": low,
+                    "ci95_high": high,
+                    "median_iterations_to_success": float(iterations.median())
+                    if len(iterations)
+                    else math.nan,
+                    "mean_final_success_fraction": float(runs["final_success_fraction"].mean()),
+                    "diverged_rollout_fraction": float(runs["diverged_fraction"].mean()),
+                    "median_run_seconds": float(runs["seconds"].median()),
+                }
+            )
+        return pd.DataFrame(rows)
+
+    return _by_dimension(summaries, sweep_keys, table)
 
 
 def markdown_table(frame: pd.DataFrame, float_format: str = "{:.4g}") -> str:

@@ -156,6 +156,27 @@ def read_metadata(path: str | Path, key: str) -> Any:
     return json.loads((pq.read_schema(path).metadata or {})[f"pih.{key}".encode()])
 
 
+def provenance_index(paths: list[str | Path]) -> pd.DataFrame:
+    """One row per output file: its run id, seeds, config and library hashes, code version,
+    Drake version and creation time."""
+    rows = []
+    for path in paths:
+        record = read_provenance(path)
+        rows.append(
+            {
+                "file": str(path),
+                "run_id": record["run_id"],
+                "seeds": ", ".join(f"{k}={v}" for k, v in sorted(record["seeds"].items())),
+                "config_sha256": record["config_sha256"][:12],
+                "library_sha256": record["library_sha256"][:12],
+                "code_version": record["code_version"],
+                "drake": record["packages"]["drake"],
+                "created_utc": record["created_utc"],
+            }
+        )
+    return pd.DataFrame(rows)
+
+
 def read_units(path: str | Path) -> dict[str, str]:
     schema = pq.read_schema(path)
     return {f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema}

@@ -12,6 +12,7 @@ initial (chamfer-peak) and final forces and the final angle (Table 2).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,8 +36,8 @@ class ValidationConfig:
     # The robot descends until the spring's rest point is this deep, past Whitney's line contact
     # (41.2 mm) plus the F_z lag of the vertical spring (≤ 25 N / 1000 N/m).
     robot_depth_m: float = 0.07
-    # Hole depth in the validation scene: deeper than the peg is long, so the tip never bottoms.
-    hole_depth_m: float = 0.06
+    # Hole depth in the validation scene: deeper than the robot descends, so the tip never bottoms.
+    hole_depth_m: float = 0.08
     # Depth where "final" values (Table 2) are read and the correlation window ends: inside
     # two-point contact for every paper offset (l2' ≥ 39.4 mm), where θ = cD/l is non-zero.
     final_depth_m: float = 0.035
@@ -54,6 +55,12 @@ class ValidationConfig:
         ):
             value = getattr(self, name)
             require(math.isfinite(value) and value > 0, prefix + name, "a finite value > 0", value)
+        require(
+            self.robot_depth_m <= self.hole_depth_m - 0.005,
+            prefix + "robot_depth_m",
+            f"at most hole_depth_m − 5 mm = {self.hole_depth_m - 0.005:g} m (the tip must not bottom)",
+            self.robot_depth_m,
+        )
 
 
 def validation_scene_config(scene: SceneConfig, config: ValidationConfig) -> SceneConfig:
@@ -134,10 +141,12 @@ def first_peak_depth(sim: pd.DataFrame, params: whitney.WhitneyParams) -> float:
 
 @dataclass(frozen=True)
 class Comparison:
-    """One offset's aligned curves and Table 2/3 metrics."""
+    """One offset's Table 2/3 metrics, the aligned curves in the metrics window (sim and theory
+    at the same depths), and the whole aligned simulated curve (for figures)."""
 
     metrics: dict[str, float | str]
-    aligned: pd.DataFrame  # depth_m (aligned), sim and theory F_x, F_z, θ
+    aligned: pd.DataFrame
+    simulated: pd.DataFrame
 
 
 def compare(
@@ -184,22 +193,22 @@ def compare(
     }
     final = aligned[aligned["depth_m"] >= config.final_depth_m - config.final_window_m]
     complete = reached >= config.final_depth_m and not final.empty
-    for name in ("f_x_n", "f_z_n", "theta_rad"):
-        metrics[f"final_{name.rsplit('_', 1)[0]}_sim"] = (
-            float(final[f"sim_{name}"].mean()) if complete else math.nan
-        )
-        metrics[f"final_{name.rsplit('_', 1)[0]}_theory"] = (
-            float(final[f"theory_{name}"].mean()) if complete else math.nan
-        )
-    for key in ("initial_f_x", "initial_f_z"):
+    for quantity, unit in (("f_x", "n"), ("f_z", "n"), ("theta", "rad")):
+        for source in ("sim", "theory"):
+            column = f"{source}_{quantity}_{unit}"
+            value = float(final[column].mean()) if complete else math.nan
+            metrics[f"final_{quantity}_{source}_{unit}"] = value
+    for key, unit in (
+        ("initial_f_x", "n"),
+        ("initial_f_z", "n"),
+        ("final_f_x", "n"),
+        ("final_f_z", "n"),
+        ("final_theta", "rad"),
+    ):
         metrics[f"rel_err_{key}_pct"] = _relative_error(
-            metrics[f"{key}_sim_n"], metrics[f"{key}_theory_n"]
+            metrics[f"{key}_sim_{unit}"], metrics[f"{key}_theory_{unit}"]
         )
-    for key in ("final_f_x", "final_f_z", "final_theta"):
-        metrics[f"rel_err_{key}_pct"] = _relative_error(
-            metrics[f"{key}_sim"], metrics[f"{key}_theory"]
-        )
-    return Comparison(metrics=metrics, aligned=aligned)
+    return Comparison(metrics=metrics, aligned=aligned, simulated=sim)
 
 
 def pooled_correlation(aligned: list[pd.DataFrame]) -> dict[str, float]:
@@ -226,11 +235,6 @@ def _relative_error(sim: float | str, theory: float | str) -> float:
     return 100.0 * abs(sim - theory) / abs(theory)
 
 
-def theory_frame(params: whitney.WhitneyParams, max_depth_m: float) -> pd.DataFrame:
-    """Whitney's curve for plotting/recording, from first chamfer contact to ``max_depth_m``."""
-    return whitney.curve(params, max_depth_m=max_depth_m)
-
-
 def phase_markers(params: whitney.WhitneyParams) -> dict[str, float]:
     """The paper's figure markers: CFC, 1PC, S2PC, E2PC (depth, m)."""
     bounds = whitney.phase_boundaries(params)
@@ -243,13 +247,70 @@ def phase_markers(params: whitney.WhitneyParams) -> dict[str, float]:
     return {label: bounds[key] for label, key in labels.items() if key in bounds}
 
 
-def summary_rows(
-    metrics: list[dict[str, float | str]], pooled: dict[str, float], contact_model: str
-) -> list[dict]:
-    """Per-offset metric rows plus a pooled row, tagged with the contact model."""
-    rows = [
-        {"contact_model": contact_model, "offset": f"{1e3 * float(m['offset_m']):g} mm", **m}
-        for m in metrics
-    ]
-    rows.append({"contact_model": contact_model, "offset": "pooled", **pooled})
-    return rows
+COMPARISON_COLUMNS: dict[str, tuple[str, str]] = {
+    "contact_model": ("", "Drake contact model"),
+    "offset": ("", "lateral offset label, or 'pooled' for all offsets of the model"),
+    "offset_m": ("m", "lateral offset eps0 of the spring base from the hole axis"),
+    "trace_status": ("", "ok, or diverged (the metrics then cover the depth reached)"),
+    "note": ("", "why a run stopped or could not be compared"),
+    "alignment_shift_m": ("m", "depth shift putting the simulated first force peak on Whitney's"),
+    "reached_depth_m": ("m", "deepest aligned insertion depth reached"),
+    "n_samples": ("1", "samples in the correlation window"),
+    "r_f_x": ("1", "Pearson r of F_x, simulated vs theory (Table 3)"),
+    "r_f_z": ("1", "Pearson r of F_z, simulated vs theory (Table 3)"),
+    **{
+        f"{when}_{q}_{source}_{unit}": (unit_name, f"{when} {q} ({source})")
+        for when in ("initial", "final")
+        for q, unit, unit_name in (("f_x", "n", "N"), ("f_z", "n", "N"), ("theta", "rad", "rad"))
+        for source in ("sim", "theory")
+        if not (when == "initial" and q == "theta")
+    },
+    **{
+        f"rel_err_{key}_pct": ("%", f"relative error of the {key.replace('_', ' ')} (Table 2)")
+        for key in ("initial_f_x", "initial_f_z", "final_f_x", "final_f_z", "final_theta")
+    },
+}
+ALIGNED_COLUMNS: dict[str, tuple[str, str]] = {
+    "contact_model": ("", "Drake contact model"),
+    "offset_m": ("m", "lateral offset eps0"),
+    "depth_m": ("m", "aligned insertion depth l"),
+    "f_x_n": ("N", "lateral contact force, Whitney's sign (negative toward the error side)"),
+    "f_z_n": ("N", "insertion force (upward contact force = downward push)"),
+    "theta_rad": ("rad", "peg tilt, positive toward the error side"),
+    "time_s": ("s", "simulated time"),
+}
+
+
+def comparison_table(
+    traces: Mapping[tuple[str, float], Trace], scene: SceneConfig, config: ValidationConfig
+) -> tuple[pd.DataFrame, dict[tuple[str, float], Comparison]]:
+    """Table 2/3 rows per (contact model, offset) and a pooled row per model. A trace that
+    cannot be compared (no chamfer contact) gets a row with its status and NaN metrics."""
+    rows: list[dict] = []
+    comparisons: dict[tuple[str, float], Comparison] = {}
+    for model in dict.fromkeys(m for m, _ in traces):
+        aligned = []
+        for (trace_model, offset), trace in traces.items():
+            if trace_model != model:
+                continue
+            row = {"contact_model": model, "offset": f"{1e3 * offset:g} mm", "offset_m": offset}
+            try:
+                result = compare(trace, scene, offset, config)
+            except ValueError as error:
+                rows.append({**row, "trace_status": trace.status, "note": str(error)})
+                continue
+            comparisons[(model, offset)] = result
+            aligned.append(result.aligned)
+            rows.append({**row, **result.metrics, "note": trace.reason})
+        pooled = pooled_correlation(aligned) if aligned else {}
+        rows.append({"contact_model": model, "offset": "pooled", "note": "", **pooled})
+    table = pd.DataFrame(rows).reindex(columns=list(COMPARISON_COLUMNS))
+    return table, comparisons
+
+
+def aligned_curves(comparisons: Mapping[tuple[str, float], Comparison]) -> pd.DataFrame:
+    """Every aligned simulated curve, in Whitney's conventions, as one table."""
+    return pd.concat(
+        [c.simulated.assign(contact_model=m, offset_m=o) for (m, o), c in comparisons.items()],
+        ignore_index=True,
+    )[list(ALIGNED_COLUMNS)]

@@ -57,6 +57,17 @@ PHASES: tuple[str, ...] = (
 )
 """Every phase label ``state_at``/``curve`` can return."""
 
+CURVE_COLUMNS: dict[str, tuple[str, str]] = {
+    "depth_m": ("m", "insertion depth l of the tip below the hole entrance"),
+    "f_x_n": ("N", "lateral force, Whitney's sign (negative toward the error side)"),
+    "f_z_n": ("N", "insertion force (downward push)"),
+    "moment_nm": ("N*m", "support moment about the tip"),
+    "theta_rad": ("rad", "peg tilt, positive toward the error side"),
+    "u_m": ("m", "lateral position of the compliance centre"),
+    "phase": ("", "contact phase"),
+}
+"""Units and descriptions of the columns of :func:`curve`."""
+
 # Key of each phase's start depth in ``phase_boundaries``.
 _BOUNDARY_KEYS: dict[str, str] = {
     "chamfer": "chamfer_start",

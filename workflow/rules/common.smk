@@ -9,8 +9,8 @@ from pih.workflow import check_study
 # Stop before any job runs if the config is malformed (schema) or out of range (library).
 validate(config, "../schemas/config.schema.json")
 
-# Sweep: each key a dotted config path, each value its levels; directories are named by the
-# last path component ("start_x_m~-0.035/method~bilevel/seed~0").
+# Sweep: each key a dotted config path, each value its levels; a run's directory is named by the
+# last path components and levels ("start_x_m~-0.035_method~bilevel_seed~0").
 SWEEP_PATHS = {path.rsplit(".", 1)[-1]: path for path in config["sweep"]}
 PLANNING = Paramspace(
     pd.DataFrame(

@@ -68,6 +68,7 @@ rule planning_aggregate:
         runtime=10,
     params:
         sweep=config["sweep"],
+        method=config["planner"]["method"],
         scene=config["scene"],
         figure_points=FIGURE_POINTS,
         library=LIBRARY_HASH,

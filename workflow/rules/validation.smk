@@ -11,7 +11,6 @@ rule whitney_curve:
         runtime=5,
     params:
         scene=config["scene"],
-        validation=config["validation"],
         library=LIBRARY_HASH,
     script:
         "../scripts/whitney_curve.py"
@@ -33,7 +32,7 @@ rule validation_run:
         runtime=15,
     params:
         scene=config["scene"],
-        validation=config["validation"],
+        experiment=config["validation"]["experiment"],
         library=LIBRARY_HASH,
     script:
         "../scripts/validation_run.py"
@@ -51,6 +50,7 @@ rule validation_compare:
         ),
     output:
         table="results/validation/comparison.parquet",
+        aligned="results/validation/aligned_curves.parquet",
         markdown=report(
             "results/validation/comparison.md",
             caption="../report/comparison.rst",

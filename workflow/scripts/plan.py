@@ -1,5 +1,6 @@
 """One planning run (paper Algorithm 1) at one sweep point."""
 
+from pih.config import to_mapping
 from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS, Planner
 from pih.recordings import record_planning
 from pih.study import resolve
@@ -8,10 +9,10 @@ from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
     point = dict(snakemake.params.point)
-    scene_config, planner_config = resolve(
+    scene, planner_config = resolve(
         {"scene": snakemake.params.scene, "planner": snakemake.params.planner}, point
     )
-    planner = Planner.from_configs(scene_config, planner_config)
+    planner = Planner.from_configs(scene, planner_config)
     record = planner.run(
         progress=lambda i, cost, ok: print(
             f"iteration {i}: best J_inn {cost:.4g}{' (success)' if ok else ''}", flush=True
@@ -21,13 +22,19 @@ with logged(snakemake.log[0]):
         snakemake,
         "plan",
         point=point,
-        seeds={"noise": planner_config.seed, "optimizer": planner_config.optimizer.seed},
-        config={"scene": snakemake.params.scene, "planner": snakemake.params.planner},
-        simulator=scene_config.simulator_settings(),
-        extra={"result": {"success_iteration": record.success_iteration}},
+        seeds=record.seeds,
+        config={"scene": to_mapping(scene), "planner": to_mapping(planner_config)},
+        simulator=scene.simulator_settings(),
+        extra={
+            "result": {
+                "success_iteration": record.success_iteration,
+                "stop_reason": record.stop_reason,
+            }
+        },
     )
     summary = {
         "success_iteration": record.success_iteration,
+        "stop_reason": record.stop_reason,
         "seconds": record.seconds,
         "rollout_seconds": record.rollout_seconds,
     }
@@ -43,8 +50,10 @@ with logged(snakemake.log[0]):
         snakemake.output.recording,
         record.rollouts,
         record.best_paths,
-        scene_config,
+        scene,
         provenance["run_id"],
         provenance,
     )
-    print(f"success iteration {record.success_iteration}; {record.seconds:.1f} s")
+    print(
+        f"success iteration {record.success_iteration}; {record.stop_reason}; {record.seconds:.1f} s"
+    )

@@ -1,39 +1,30 @@
-"""Whitney's theoretical curve for one lateral offset (paper §2.3)."""
+"""Whitney's theoretical curve for one lateral offset (paper §2.3), to the peg's length."""
 
 from pih import whitney
 from pih.config import from_mapping
 from pih.scene import SceneConfig
 from pih.traces import write_table
 from pih.validation import whitney_params
-from pih.workflow import ValidationSection, job_provenance, logged
-
-CURVE_COLUMNS = {
-    "depth_m": ("m", "insertion depth l of the tip below the hole entrance"),
-    "f_x_n": ("N", "lateral force, Whitney's sign (negative toward the error side)"),
-    "f_z_n": ("N", "insertion force (downward push)"),
-    "moment_nm": ("N*m", "support moment about the tip"),
-    "theta_rad": ("rad", "peg tilt, positive toward the error side"),
-    "u_m": ("m", "lateral position of the compliance centre"),
-    "phase": ("", "contact phase"),
-}
+from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
     scene = from_mapping(SceneConfig, snakemake.params.scene, "scene")
-    section = from_mapping(ValidationSection, snakemake.params.validation, "validation")
     offset = float(snakemake.wildcards.offset)
     params = whitney_params(scene, offset)
     curve = whitney.curve(params, max_depth_m=scene.peg.length_m)
+    bounds = whitney.phase_boundaries(params)
     record = job_provenance(
         snakemake,
         "whitney_curve",
+        point={"offset_m": offset},
         config={"scene": snakemake.params.scene},
-        extra={"whitney": params.__dict__},
+        extra={"whitney": vars(params)},
     )
     write_table(
         curve,
         snakemake.output.curve,
         record,
-        CURVE_COLUMNS,
-        extra_metadata={"phase_boundaries": whitney.phase_boundaries(params)},
+        whitney.CURVE_COLUMNS,
+        extra_metadata={"phase_boundaries": bounds},
     )
-    print(f"offset {offset} m: {len(curve)} points, boundaries {whitney.phase_boundaries(params)}")
+    print(f"{len(curve)} points; phase boundaries {bounds}")

@@ -1,0 +1,10 @@
+"""A table of the provenance records of all outputs, for the report."""
+
+from pih.study import markdown_table
+from pih.traces import provenance_index, write_text
+from pih.workflow import logged
+
+with logged(snakemake.log[0]):
+    table = provenance_index(list(snakemake.input))
+    write_text(snakemake.output.index, "# Provenance of the outputs\n\n" + markdown_table(table))
+    print(f"{len(table)} files indexed")
