@@ -29,6 +29,16 @@ def require(condition: bool, key: str, allowed: str, value: Any) -> None:
         raise ConfigError(f"{key}: {value!r} is not allowed; expected {allowed}")
 
 
+def require_positive(
+    obj: Any, names: tuple[str, ...], prefix: str, *, allow_zero: bool = False
+) -> None:
+    """Each named field of ``obj`` is finite and > 0 (or >= 0 with ``allow_zero``)."""
+    for name in names:
+        value = getattr(obj, name)
+        ok = math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
+        require(ok, prefix + name, f"a finite value {'>=' if allow_zero else '>'} 0", value)
+
+
 def require_finite(key: str, value: float | tuple[float, ...]) -> None:
     values = value if isinstance(value, tuple) else (value,)
     require(all(math.isfinite(v) for v in values), key, "finite number(s)", value)

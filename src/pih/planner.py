@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from pih.config import ConfigError, require, require_finite
+from pih.config import ConfigError, require, require_finite, require_positive
 from pih.dmp import Dmp, DmpConfig
 from pih.frames import spring_energy
 from pih.optimizers import OptimizerConfig, make_optimizer
@@ -55,11 +55,8 @@ class CostConfig:
     sample_period_s: float = 0.01
 
     def validate(self, prefix: str = "") -> None:
-        for name in ("regularization", "spring_energy", "hole_distance"):
-            value = getattr(self, name)
-            require(
-                math.isfinite(value) and value >= 0, prefix + name, "a finite weight >= 0", value
-            )
+        names = ("regularization", "spring_energy", "hole_distance")
+        require_positive(self, names, prefix, allow_zero=True)
         require(
             math.isfinite(self.sample_period_s) and self.sample_period_s > 0,
             prefix + "sample_period_s",
@@ -135,12 +132,8 @@ class PlannerConfig:
         require(self.method in METHODS, prefix + "method", f"one of {list(METHODS)}", self.method)
         require(self.iterations >= 1, prefix + "iterations", "an integer >= 1", self.iterations)
         require_finite(prefix + "start_x_m", self.start_x_m)
-        for name in ("start_height_m", "settle_s", "success_tolerance_m"):
-            value = getattr(self, name)
-            ok = math.isfinite(value) and (value > 0 if name != "settle_s" else value >= 0)
-            require(
-                ok, prefix + name, "a finite value > 0" if name != "settle_s" else ">= 0", value
-            )
+        require_positive(self, ("start_height_m", "success_tolerance_m"), prefix)
+        require_positive(self, ("settle_s",), prefix, allow_zero=True)
         require(self.seed >= 0, prefix + "seed", "an integer >= 0", self.seed)
         require(
             self.convergence_window >= 0,

@@ -45,7 +45,7 @@ from pydrake.systems.framework import DiagramBuilder, EventStatus
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from pih.config import require, require_finite
+from pih.config import require, require_finite, require_positive
 from pih.frames import offset_along_axis, spring_energy, spring_force
 
 # --------------------------------------------------------------------------------------------
@@ -65,9 +65,9 @@ class PegConfig:
     density_kg_per_m3: float = 7850.0
 
     def validate(self, prefix: str = "") -> None:
-        for name in ("diameter_m", "length_m", "thickness_m", "density_kg_per_m3"):
-            value = getattr(self, name)
-            require(math.isfinite(value) and value > 0, prefix + name, "a finite value > 0", value)
+        require_positive(
+            self, ("diameter_m", "length_m", "thickness_m", "density_kg_per_m3"), prefix
+        )
 
     @property
     def mass_kg(self) -> float:
@@ -106,9 +106,7 @@ class HoleConfig:
     y_m: float = -0.010
 
     def validate(self, prefix: str = "") -> None:
-        for name in ("diameter_m", "depth_m", "wall_width_m", "thickness_m"):
-            value = getattr(self, name)
-            require(math.isfinite(value) and value > 0, prefix + name, "a finite value > 0", value)
+        require_positive(self, ("diameter_m", "depth_m", "wall_width_m", "thickness_m"), prefix)
         require(
             0.0 < self.chamfer_angle_deg < 90.0,
             prefix + "chamfer_angle_deg",
@@ -172,14 +170,9 @@ class MaterialConfig:
     point_stiffness_n_per_m: float = 1.0e6
 
     def validate(self, prefix: str = "") -> None:
-        for name in ("hydroelastic_modulus_pa", "point_stiffness_n_per_m"):
-            value = getattr(self, name)
-            require(math.isfinite(value) and value > 0, prefix + name, "a finite value > 0", value)
-        for name in ("hunt_crossley_dissipation_s_per_m", "friction", "margin_m"):
-            value = getattr(self, name)
-            require(
-                math.isfinite(value) and value >= 0, prefix + name, "a finite value >= 0", value
-            )
+        require_positive(self, ("hydroelastic_modulus_pa", "point_stiffness_n_per_m"), prefix)
+        names = ("hunt_crossley_dissipation_s_per_m", "friction", "margin_m")
+        require_positive(self, names, prefix, allow_zero=True)
 
 
 ContactModel = Literal["hydroelastic", "hydroelastic_with_fallback", "point"]
@@ -211,15 +204,14 @@ class SolverConfig:
     log_contact_patches: bool = True
 
     def validate(self, prefix: str = "") -> None:
-        for name in (
+        names = (
             "time_step_s",
             "max_contact_force_n",
             "max_distance_from_hole_m",
             "max_penetration_m",
             "check_interval_s",
-        ):
-            value = getattr(self, name)
-            require(math.isfinite(value) and value > 0, prefix + name, "a finite value > 0", value)
+        )
+        require_positive(self, names, prefix)
 
 
 @dataclass(frozen=True)

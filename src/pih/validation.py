@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from pih import whitney
-from pih.config import require
+from pih.config import require, require_positive
 from pih.scene import PegInHoleScene, RobotTrajectory, SceneConfig, Trace
 
 ENTRANCE_SIDE_M = 1e-9
@@ -45,16 +45,15 @@ class ValidationConfig:
     final_window_m: float = 0.001
 
     def validate(self, prefix: str = "") -> None:
-        for name in (
+        names = (
             "speed_m_per_s",
             "start_height_m",
             "robot_depth_m",
             "hole_depth_m",
             "final_depth_m",
             "final_window_m",
-        ):
-            value = getattr(self, name)
-            require(math.isfinite(value) and value > 0, prefix + name, "a finite value > 0", value)
+        )
+        require_positive(self, names, prefix)
         require(
             self.robot_depth_m <= self.hole_depth_m - 0.005,
             prefix + "robot_depth_m",
