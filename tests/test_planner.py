@@ -158,3 +158,21 @@ def test_planner_config_defaults_are_table_4():
     assert (config.sensing.bias_m, config.sensing.std_m) == (0.005, 0.005)
     assert (config.optimizer.population_size, config.iterations) == (10, 50)
     assert dataclasses.asdict(SceneConfig().spring)["stiffness"] == (1000.0, 1000.0, 1.0)
+
+
+def test_convergence_stop_ends_the_run_early_and_says_why():
+    config = replace(
+        PlannerConfig(),
+        iterations=5,
+        dmp=DmpConfig(duration_s=1.0),
+        optimizer=OptimizerConfig(population_size=2, sigma=0.3),
+        settle_s=0.1,
+        convergence_window=2,
+        convergence_tolerance=10.0,  # any two finite best costs within 10x of their mean
+    )
+    record = Planner.from_configs(SceneConfig(), config).run()
+    assert record.stop_reason == "converged at iteration 2"
+    assert record.rollouts["iteration"].max() == 2
+    budget = Planner.from_configs(SceneConfig(), replace(config, convergence_window=0)).run()
+    assert budget.stop_reason == "iteration budget (5)"
+    assert budget.rollouts["iteration"].max() == 5
