@@ -68,15 +68,21 @@ def test_sensed_hole_is_seeded_and_biased():
     assert np.array_equal(again, draws[3])
 
 
+def short_config(iterations: int, population_size: int, **changes) -> PlannerConfig:
+    """A planner config with 1.1 s rollouts, for fast end-to-end runs."""
+    return replace(
+        PlannerConfig(),
+        iterations=iterations,
+        dmp=DmpConfig(duration_s=1.0),
+        optimizer=OptimizerConfig(population_size=population_size, sigma=0.3),
+        settle_s=0.1,
+        **changes,
+    )
+
+
 @pytest.fixture(scope="module")
 def tiny_runs():
-    config = replace(
-        PlannerConfig(),
-        iterations=2,
-        dmp=DmpConfig(duration_s=1.0),
-        optimizer=OptimizerConfig(population_size=3, sigma=0.3),
-        settle_s=0.1,
-    )
+    config = short_config(iterations=2, population_size=3)
     scene = SceneConfig()
     first = Planner.from_configs(scene, config).run()
     second = Planner.from_configs(scene, config).run()
@@ -161,12 +167,9 @@ def test_planner_config_defaults_are_table_4():
 
 
 def test_convergence_stop_ends_the_run_early_and_says_why():
-    config = replace(
-        PlannerConfig(),
+    config = short_config(
         iterations=5,
-        dmp=DmpConfig(duration_s=1.0),
-        optimizer=OptimizerConfig(population_size=2, sigma=0.3),
-        settle_s=0.1,
+        population_size=2,
         convergence_window=2,
         convergence_tolerance=10.0,  # any two finite best costs within 10x of their mean
     )
