@@ -9,7 +9,12 @@ from pih.config import ConfigError, from_mapping, to_mapping
 from pih.dmp import DmpConfig
 from pih.optimizers import OptimizerConfig
 from pih.planner import (
+    CLEAN_OVERLAP_M,
+    CostBalance,
     CostConfig,
+    CostTerms,
+    OuterConfig,
+    OuterLevel,
     Planner,
     PlannerConfig,
     SensingConfig,
@@ -17,7 +22,9 @@ from pih.planner import (
     inner_cost,
     outer_goal,
     replace,
+    run_seeds,
 )
+from pih.study import seed_key
 from pih.scene import SceneConfig
 
 SENSING = SensingConfig(hole_std=(0.005, 0.001, 0.02))
@@ -93,8 +100,14 @@ def tiny_runs():
 def test_run_record_is_complete_and_deterministic(tiny_runs):
     first, second, _ = tiny_runs
     rollouts = first.rollouts
-    assert len(rollouts) == 2 * 3
-    assert rollouts.groupby("iteration")["is_best"].sum().tolist() == [1, 1]
+    train = rollouts[rollouts["phase"] == "train"]
+    assert len(train) == 2 * 3
+    assert train.groupby("iteration")["is_best"].sum().tolist() == [1, 1]
+    deploy = rollouts[rollouts["phase"] == "deploy"]
+    assert len(deploy) == PlannerConfig().deploy_trials
+    assert deploy["rollout"].tolist() == list(range(len(deploy)))
+    assert not deploy["is_best"].any() and (deploy["sigma"] == 0).all()
+    assert first.deploy_success_rate == pytest.approx(deploy["success"].mean())
     ok = rollouts["status"] == "ok"
     assert np.allclose(
         rollouts.loc[ok, "cost"],
@@ -115,6 +128,11 @@ def test_first_iteration_goal_is_the_sensed_hole_for_both_methods(tiny_runs):
         assert first["goal_x_m"] == pytest.approx(first["sensed_hole_x_m"])
         assert first["goal_y_m"] == pytest.approx(first["sensed_hole_y_m"] + 0.045)
     # One-level keeps goal = sensed hole; bilevel moves it to an explored tip pose.
+    for record in (bilevel, one_level):
+        rows = record.rollouts
+        assert np.allclose(
+            rows["target_hole_error_m"], np.hypot(rows["target_x_m"], rows["target_y_m"] + 0.01)
+        )
     later = one_level.rollouts[one_level.rollouts["iteration"] == 2].iloc[0]
     assert later["goal_x_m"] == pytest.approx(later["sensed_hole_x_m"])
     moved = bilevel.rollouts[bilevel.rollouts["iteration"] == 2].iloc[0]
@@ -141,6 +159,15 @@ def test_first_iteration_goal_is_the_sensed_hole_for_both_methods(tiny_runs):
             r"planner\.sensing\.hole_std.*singular",
         ),
         (lambda c: c["dmp"].update(n_basis=0), r"planner\.dmp\.n_basis"),
+        (lambda c: c["outer"].update(rule="gradient"), r"planner\.outer\.rule"),
+        (lambda c: c["outer"].update(goal_tilt="level"), r"planner\.outer\.goal_tilt"),
+        (lambda c: c["sensing"].update(redraw="never"), r"planner\.sensing\.redraw"),
+        (lambda c: c.update(deploy_trials=0), r"planner\.deploy_trials"),
+        (lambda c: c.update(start_height_m=0.5), r"planner\.start_height_m"),
+        (
+            lambda c: c["costs"].update(balance="first_iteration_median", spring_energy=0.0),
+            r"planner\.costs\.spring_energy.*median",
+        ),
     ],
 )
 def test_bad_planner_config_is_rejected_before_simulation(edit, message):
@@ -179,3 +206,115 @@ def test_convergence_stop_ends_the_run_early_and_says_why():
     budget = Planner.from_configs(SceneConfig(), replace(config, convergence_window=0)).run()
     assert budget.stop_reason == "iteration budget (5)"
     assert budget.rollouts["iteration"].max() == 5
+
+
+def test_seeds_differ_between_sweep_points_and_are_shared_by_the_methods():
+    config = PlannerConfig()
+    start_a = seed_key({"planner.start_x_m": -0.031, "planner.seed": 0, "planner.method": "bilevel"})
+    start_b = seed_key({"planner.start_x_m": -0.032, "planner.seed": 0, "planner.method": "bilevel"})
+    one_level = seed_key(
+        {"planner.start_x_m": -0.031, "planner.seed": 0, "planner.method": "one_level"}
+    )
+    other_rule = seed_key(
+        {
+            "planner.start_x_m": -0.031,
+            "planner.seed": 0,
+            "planner.method": "bilevel",
+            "planner.outer.rule": "deepest_explored",
+        }
+    )
+    assert start_a == one_level == other_rule != start_b
+    seeds_a, seeds_b = run_seeds(config, start_a), run_seeds(config, start_b)
+    assert set(seeds_a) == {"noise", "exploration", "deployment"}
+    assert len(set(seeds_a.values())) == 3
+    assert not set(seeds_a.values()) & set(seeds_b.values())
+    assert run_seeds(replace(config, seed=1), start_a) != seeds_a
+
+
+def test_two_starts_draw_different_sensed_holes_and_both_methods_the_same():
+    config = short_config(iterations=3, population_size=1, deploy_trials=1)
+    scene = SceneConfig()
+
+    def sensed(start_x_m: float, method: str) -> list[float]:
+        point = {"planner.start_x_m": start_x_m, "planner.method": method}
+        planner = Planner.from_configs(
+            scene, replace(config, start_x_m=start_x_m, method=method), seed_key(point)
+        )
+        return planner.run().rollouts["sensed_hole_x_m"].tolist()
+
+    bilevel = sensed(-0.031, "bilevel")
+    assert bilevel == sensed(-0.031, "one_level")
+    assert len(set(bilevel[:3])) == 3  # redrawn every iteration (Algorithm 1)
+    assert not set(bilevel) & set(sensed(-0.032, "bilevel"))
+
+
+def test_per_run_redraw_senses_the_hole_once():
+    config = short_config(iterations=3, population_size=1, deploy_trials=1)
+    once = replace(config, sensing=dataclasses.replace(config.sensing, redraw="per_run"))
+    rows = Planner.from_configs(SceneConfig(), once).run().rollouts
+    train = rows[rows["phase"] == "train"]
+    assert train["sensed_hole_x_m"].nunique() == 1
+
+
+def _trace_at(poses: np.ndarray, overlap: float = 0.0):
+    from pih.scene import Trace
+
+    n = len(poses)
+    zeros = np.zeros((n, 3))
+    return Trace(
+        time_s=np.arange(n, dtype=float),
+        q_robot=zeros,
+        q_peg=zeros,
+        q_peg_top=zeros,
+        q_peg_bottom=np.asarray(poses, dtype=float),
+        contact_force=zeros,
+        contact_patches=np.zeros(n, dtype=np.int64),
+        spring_force=zeros,
+        spring_energy_j=np.zeros(n),
+        insertion_depth_m=np.zeros(n),
+        penetration_m=np.full(n, overlap),
+    )
+
+
+def test_deepest_explored_aims_below_the_deepest_pose_and_remembers_it():
+    config = replace(PlannerConfig(), outer=OuterConfig(rule="deepest_explored"))
+    outer = OuterLevel(config, hole_depth_m=0.01)
+    sensed = np.array([0.006, -0.01, 0.0])
+    assert np.array_equal(outer.goal(sensed), sensed)  # nothing explored yet
+    # On the surface only (top at y = 0): the paper's rule.
+    outer.observe([_trace_at([[0.004, 0.0, 0.0], [-0.02, 0.0, 0.0]])], slice(None))
+    assert np.array_equal(outer.goal(sensed), [0.004, 0.0, 0.0])
+    # A pose 3 mm into the chamfer: aim at the sensed depth straight below it.
+    outer.observe([_trace_at([[0.0012, -0.003, 0.01], [0.004, 0.0, 0.0]])], slice(None))
+    assert np.allclose(outer.goal(sensed), [0.0012, -0.01, 0.01])
+    # A later iteration that stays on the surface does not forget it...
+    outer.observe([_trace_at([[0.004, 0.0, 0.0]])], slice(None))
+    assert np.allclose(outer.goal(np.array([0.009, -0.01, 0.0])), [0.0012, -0.01, 0.01])
+    # ...and a deep pose that is a solver overlap transient is not trusted.
+    outer.observe([_trace_at([[0.01, -0.008, 0.0]], overlap=2 * CLEAN_OVERLAP_M)], slice(None))
+    assert outer.deepest[0] == pytest.approx(0.0012)
+    sensed_tilt = replace(config, outer=OuterConfig(rule="deepest_explored", goal_tilt="sensed"))
+    tilted = OuterLevel(sensed_tilt, hole_depth_m=0.01)
+    tilted.observe([_trace_at([[0.0012, -0.003, 0.01]])], slice(None))
+    assert tilted.goal(sensed)[2] == 0.0
+
+
+def test_explored_argmin_is_the_papers_rule_on_the_previous_iteration():
+    outer = OuterLevel(PlannerConfig(), hole_depth_m=0.01)
+    sensed = np.array([0.005, -0.01, 0.0])
+    outer.observe([_trace_at([[0.0, -0.009, 0.0], [0.005, 0.0, 0.0]])], slice(None))
+    assert np.array_equal(outer.goal(sensed), [0.0, -0.009, 0.0])
+    outer.observe([_trace_at([[0.005, 0.0, 0.0]])], slice(None))  # Q_P is reset each iteration
+    assert np.array_equal(outer.goal(sensed), [0.005, 0.0, 0.0])
+
+
+def test_cost_balance_divides_each_term_by_its_first_iteration_median():
+    balance = CostBalance(CostConfig(balance="first_iteration_median"))
+    first = [CostTerms(2.0, 10.0, 100.0), CostTerms(4.0, 30.0, 300.0), None]
+    totals = balance.totals(first)
+    assert np.allclose(balance.divisors, [3.0, 20.0, 200.0])
+    assert totals[0] == pytest.approx(2 / 3 + 0.5 + 0.5) and np.isnan(totals[2])
+    # The divisors are fixed after the first iteration.
+    assert balance.totals([CostTerms(3.0, 20.0, 200.0)])[0] == pytest.approx(3.0)
+    unbalanced = CostBalance(CostConfig())
+    assert unbalanced.totals(first)[1] == pytest.approx(334.0)

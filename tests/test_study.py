@@ -14,6 +14,7 @@ from pih.study import (
     override,
     resolve,
     success_table,
+    sweep_points,
     wilson_interval,
 )
 
@@ -57,20 +58,43 @@ def test_bands_and_success_table_per_method_and_dimension():
         {
             "method": ["a", "a", "b"],
             "planner.seed": ["0", "1", "0"],
-            "succeeded": [True, False, True],
-            "success_iteration": [4, None, 10],
+            "deploy_success_rate": [1.0, 0.5, 0.0],
+            "final_iteration_success": [True, False, False],
+            "first_success_iteration": [4, None, None],
+            "goal_iteration": [3, None, 10],
             "final_success_fraction": [1.0, 0.0, 0.5],
             "diverged_fraction": [0.1, 0.0, 0.2],
-            "seconds": [1.0, 2.0, 3.0],
         }
     )
     table = success_table(summaries, ["planner.method", "planner.seed"])
     overall = table[table["dimension"] == "all"].set_index("method")
-    assert overall.loc["a", "success_rate"] == 0.5
-    assert overall.loc["a", "median_iterations_to_success"] == 4
-    assert overall.loc["b", "mean_final_success_fraction"] == 0.5
+    assert overall.loc["a", "deploy_success_rate"] == 0.75
+    assert (overall.loc["a", "deploy_ci_low"], overall.loc["a", "deploy_ci_high"]) == pytest.approx(
+        wilson_interval(1.5, 2)
+    )
+    # One of two runs never reached success: the median is "never" (NaN), not the other run's.
+    assert math.isnan(overall.loc["a", "median_first_success_iteration"])
+    assert overall.loc["b", "median_goal_iteration"] == 10
+    assert overall.loc["b", "mean_last10_success_fraction"] == 0.5
+    assert overall.loc["a", "first_success_rate"] == 0.5
     seed_one = table[(table["dimension"] == "planner.seed") & (table["level"] == "1")]
-    assert seed_one["method"].tolist() == ["a"] and seed_one["successes"].tolist() == [0]
+    assert seed_one["method"].tolist() == ["a"] and seed_one["runs"].tolist() == [1]
+
+
+def test_sweep_points_skip_repeated_one_level_runs_and_reject_bad_sweeps():
+    sweep = {
+        "planner.start_x_m": [-0.04, -0.03],
+        "planner.method": ["one_level", "bilevel"],
+        "planner.outer.rule": ["explored_argmin", "deepest_explored"],
+    }
+    points = sweep_points(sweep)
+    assert len(points) == 2 * (1 + 2)
+    one_level = [p for p in points if p["planner.method"] == "one_level"]
+    assert {p["planner.outer.rule"] for p in one_level} == {"explored_argmin"}
+    with pytest.raises(ConfigError, match=r"sweep\.planner\.seed: repeated level"):
+        sweep_points({"planner.seed": [0, 0]})
+    with pytest.raises(ConfigError, match="planner.seed.*planner.optimizer.seed"):
+        sweep_points({"planner.seed": [0], "planner.optimizer.seed": [1]})
 
 
 def test_final_success_fraction_uses_the_last_best_rollouts():

@@ -6,7 +6,9 @@ own results/ are never touched.
 
 from __future__ import annotations
 
+import base64
 import json
+import math
 import os
 import shutil
 import signal
@@ -75,30 +77,31 @@ def test_committed_schema_matches_the_code():
     )
 
 
+@pytest.mark.slow
 def test_default_config_dry_run_lists_the_full_study(tmp_path):
     work = copy_workflow(tmp_path)
     jobs = planned_jobs(snakemake(work, "-n"))
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
-    n_points = 1
-    for levels in config["sweep"].values():
-        n_points *= len(levels)
-    assert jobs["plan"] == n_points == 11 * 2 * 3
+    n_points = math.prod(len(levels) for levels in config["sweep"].values())
+    # One-level runs are made once per (start, seed), not once per outer rule.
+    assert n_points == 11 * 2 * 2 * 5
+    assert jobs["plan"] == 11 * (1 + 2) * 5
     assert jobs["validation_run"] == 4 * 2
     assert jobs["whitney_curve"] == 4
 
 
+@pytest.mark.slow
 def test_new_sweep_dimension_is_a_config_edit(tmp_path):
     work = copy_workflow(tmp_path)
     config = json.loads(json.dumps(SMOKE))
     config["sweep"]["planner.sensing.bias_m"] = [0.0, 0.005]
     result = snakemake(work, "-n", config=config)
-    base = 1
-    for levels in SMOKE["sweep"].values():
-        base *= len(levels)
+    base = planned_jobs(snakemake(work, "-n", config=SMOKE))["plan"]
     assert planned_jobs(result)["plan"] == 2 * base
     assert "bias_m~0.0" in result.stdout and "bias_m~0.005" in result.stdout
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
@@ -112,6 +115,13 @@ def test_new_sweep_dimension_is_a_config_edit(tmp_path):
         (lambda c: c["planner"].update(method="two_level"), "two_level"),
         (lambda c: c["sweep"].update({"planner.no_such_key": [1, 2]}), "planner.no_such_key"),
         (lambda c: c["scene"]["spring"].pop("damping_ratio"), "damping_ratio"),
+        (lambda c: c["sweep"].update({"planner.seed": [0, 0]}), "sweep.planner.seed: repeated"),
+        (
+            lambda c: c["sweep"].update({"planner.optimizer.seed": [0, 1]}),
+            "both end in 'seed'",
+        ),
+        (lambda c: c["planner"].update(deploy_trials=0), "planner.deploy_trials"),
+        (lambda c: c["planner"]["outer"].update(rule="newton"), "newton"),
     ],
 )
 def test_bad_config_stops_before_any_job_naming_the_key(tmp_path, edit, message):
@@ -136,6 +146,7 @@ def smoke_run(tmp_path_factory) -> Path:
     return work
 
 
+@pytest.mark.slow
 def test_smoke_study_outputs_carry_provenance(smoke_run):
     results = smoke_run / "results"
     parquet = sorted(results.rglob("*.parquet"))
@@ -148,10 +159,12 @@ def test_smoke_study_outputs_carry_provenance(smoke_run):
             and record["packages"]["drake"] == "1.51.1"
         )
     rollouts = sorted(results.glob("planning/*/rollouts.parquet"))
-    assert len(rollouts) == 4
+    assert len(rollouts) == 2 * (1 + 2)  # starts x (one-level + bilevel with two outer rules)
     record = read_provenance(rollouts[0])
     assert set(record["sweep_point"]) == set(SMOKE["sweep"])
-    assert record["seeds"]["noise"] == record["sweep_point"]["planner.seed"]
+    assert record["seeds"]["planner.seed"] == record["sweep_point"]["planner.seed"]
+    assert {"noise", "exploration", "deployment"} <= set(record["seeds"])
+    assert record["seed_key"] and "planner.method" not in record["seed_key"]
     assert record["simulator"]["discrete_contact_approximation"] == "tamsi"
     table = pd.read_parquet(results / "validation" / "comparison.parquet")
     assert set(table["contact_model"]) == {"hydroelastic", "point"}
@@ -165,17 +178,23 @@ def test_smoke_study_outputs_carry_provenance(smoke_run):
     index = (results / "provenance.md").read_text()
     assert index.count("| results/") == len(parquet)
     success = pd.read_parquet(results / "planning" / "summary" / "success.parquet")
-    assert set(success[success["dimension"] == "all"]["method"]) == {"one_level", "bilevel"}
+    assert set(success[success["dimension"] == "all"]["method"]) == {
+        "one_level",
+        "bilevel/explored_argmin",
+        "bilevel/deepest_explored",
+    }
+    assert (results / "planning" / "summary" / "fig_deploy_success.png").stat().st_size > 10_000
     bands = pd.read_parquet(results / "planning" / "summary" / "cost_bands.parquet")
     per_start = bands[bands["dimension"] == "planner.start_x_m"]
-    assert per_start.groupby("level")["method"].nunique().tolist() == [2, 2]
+    assert per_start.groupby("level")["method"].nunique().tolist() == [3, 3]
     aligned = pd.read_parquet(results / "validation" / "aligned_curves.parquet")
     assert set(aligned["contact_model"]) == {"hydroelastic", "point"}
 
 
+@pytest.mark.slow
 def test_every_recording_verifies(smoke_run):
     recordings = sorted((smoke_run / "results").rglob("*.rrd"))
-    assert len(recordings) == 4 + 2  # planning runs + validation runs
+    assert len(recordings) == 6 + 2  # planning runs + validation runs
     result = subprocess.run(
         ["rerun", "rrd", "verify", *map(str, recordings)],
         capture_output=True,
@@ -185,6 +204,7 @@ def test_every_recording_verifies(smoke_run):
     assert result.returncode == 0, result.stderr
 
 
+@pytest.mark.slow
 def test_rerun_is_a_no_op_and_a_forced_rerun_gives_the_same_data(smoke_run):
     dry = snakemake(smoke_run, "-n", config=SMOKE)
     assert "Nothing to be done" in dry.stdout + dry.stderr
@@ -198,6 +218,20 @@ def test_rerun_is_a_no_op_and_a_forced_rerun_gives_the_same_data(smoke_run):
     assert stable(before_record) == stable(after_record)
 
 
+def recorded_outputs(workdir: Path) -> set[Path]:
+    """Outputs of the jobs Snakemake has recorded as finished (its metadata records)."""
+    folder = workdir / ".snakemake" / "metadata"
+    names = os.listdir(folder) if folder.is_dir() else []
+    return {workdir / base64.urlsafe_b64decode(name).decode() for name in names}
+
+
+def running_jobs(workdir: Path) -> int:
+    """Jobs Snakemake has started and not yet finished (its incomplete markers)."""
+    folder = workdir / ".snakemake" / "incomplete"
+    return len(os.listdir(folder)) if folder.is_dir() else 0
+
+
+@pytest.mark.slow
 def test_killed_run_resumes_without_corrupt_outputs(tmp_path):
     work = copy_workflow(tmp_path)
     (work / "test-config.yaml").write_text(yaml.safe_dump(SMOKE))
@@ -210,14 +244,18 @@ def test_killed_run_resumes_without_corrupt_outputs(tmp_path):
         env=env,
         start_new_session=True,
     )
-    deadline = time.time() + 120
-    while time.time() < deadline and not list((work / "results").rglob("*.parquet")):
-        time.sleep(0.2)
-    time.sleep(1.0)  # now mid-way through a later job
+    # Kill once a job has finished (recorded by Snakemake) while a later one is running.
+    deadline = time.time() + 300
+    while time.time() < deadline and not (
+        any(p.suffix == ".parquet" for p in recorded_outputs(work)) and running_jobs(work)
+    ):
+        time.sleep(0.05)
+    finished_before = {
+        p: p.stat().st_mtime_ns for p in recorded_outputs(work) if p.suffix == ".parquet"
+    }
     os.killpg(process.pid, signal.SIGTERM)  # `kill`: Snakemake and the running job are stopped
     process.wait(timeout=60)
-    finished_before = {p: p.stat().st_mtime_ns for p in (work / "results").rglob("*.parquet")}
-    assert finished_before, "the run was killed before any job finished"
+    assert finished_before, "no job finished within the deadline"
     snakemake(work, config=SMOKE)
     for path in (work / "results").rglob("*.parquet"):
         pd.read_parquet(path)  # every output is complete

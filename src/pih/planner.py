@@ -3,26 +3,28 @@
 Each iteration i:
 
 1. **Sense** the hole: x̃_H ~ N(x_H + μ_x, σ_x²), y_H and θ_H exact (eq. 16b), drawn from the
-   run's seeded generator, so the sensed hole changes every iteration but is the same for all of
-   that iteration's rollouts.
+   run's seeded generator: anew every iteration (Algorithm 1) or once per run
+   (``sensing.redraw``); the same for all of that iteration's rollouts.
 2. **Goal** q_R(T) of the DMP. The robot frame R rests on the peg top P1, so "put the peg tip
    P2 at pose q" means q_R(T) = q_P1 of the peg whose P2 is at q (the frame offset of eq. 4–5).
-   *One-level*: q = q̃_H. *Bilevel*: q = arg min J_out(q_P2, q̃_H) (eq. 15–16) over Q_P, the
-   peg-tip poses P2 explored by the previous iteration's rollouts — every cost sample of every
-   rollout that did not diverge. P2 is searched (not P1, as Algorithm 1's typography suggests)
-   because eq. 15–16c define J_out on q_P2, the point that must reach the hole. In the first
-   iteration, with nothing explored yet, both methods use q̃_H (paper §3.3: "the same initial goal").
+   *One-level*: q = q̃_H. *Bilevel*: the outer level (:class:`OuterLevel`); the paper's rule is
+   q = arg min J_out(q_P2, q̃_H) (eq. 15–16) over Q_P, the P2 poses explored by the previous
+   iteration's non-diverged rollouts. In the first iteration both methods use q̃_H (§3.3).
 3. **Rollouts**: r weight vectors W ~ N(W*, σ_W) (eq. 12, or CMA-ES) → DMP (eq. A1) →
    simulator (eq. 1) → inner cost J_inn (eq. 11).
 4. **Update** W* from the costs (eq. 13, or CMA-ES).
 
-A rollout *succeeds* when the true (not sensed) distance between P2 and the hole frame H at its end
-is within ``success_tolerance_m``; a run succeeds at the first iteration whose best rollout does.
+After the last iteration the learned policy W* is **deployed** ``deploy_trials`` times, each
+against a freshly sensed hole, with no exploration noise: the fraction that inserts answers
+"would this policy insert if deployed?". A rollout *succeeds* when the true (not sensed) distance
+between P2 and the hole frame H at its end is within ``success_tolerance_m``. docs/planner.md
+explains the choices.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 import time
 from collections.abc import Callable
@@ -43,9 +45,18 @@ Method = Literal["one_level", "bilevel"]
 METHODS: tuple[str, ...] = ("one_level", "bilevel")
 
 
+Balance = Literal["none", "first_iteration_median"]
+Redraw = Literal["per_iteration", "per_run"]
+OuterRule = Literal["explored_argmin", "deepest_explored"]
+GoalTilt = Literal["explored", "sensed"]
+COST_TERMS: tuple[str, ...] = ("regularization", "spring_energy", "hole_distance")
+MAX_START_HEIGHT_M = 0.15
+"""Highest start allowed above the hole's top surface (the paper's Fig. 8 starts ≈0.1 m up)."""
+
+
 @dataclass(frozen=True)
 class CostConfig:
-    """Weights of eq. 11 (paper Table 4) and the sampling of its sums."""
+    """Weights of eq. 11 (paper Table 4), the sampling of its sums, and their balance."""
 
     regularization: float = 1.0e4  # α1
     spring_energy: float = 20.0  # α2
@@ -53,16 +64,30 @@ class CostConfig:
     # The sums over t in eq. 11 run over samples this far apart, so the weights' balance does
     # not change with the simulator's time step. Not in the paper.
     sample_period_s: float = 0.01
+    # Whether the sums also run over the settling time after the DMP's duration T.
+    include_settling: bool = True
+    # "none": eq. 11 as printed. "first_iteration_median": each term is divided by its median
+    # over the first iteration's rollouts (then weighted by α), so the terms start at the
+    # similar sizes the paper asks for (§3.3); the divisors are fixed after iteration 1.
+    balance: Balance = "none"
 
     def validate(self, prefix: str = "") -> None:
-        names = ("regularization", "spring_energy", "hole_distance")
-        require_positive(self, names, prefix, allow_zero=True)
+        require_positive(self, COST_TERMS, prefix, allow_zero=True)
         require(
             math.isfinite(self.sample_period_s) and self.sample_period_s > 0,
             prefix + "sample_period_s",
             "a finite period > 0 s",
             self.sample_period_s,
         )
+        if self.balance != "none":
+            for name in COST_TERMS:
+                require(
+                    getattr(self, name) > 0,
+                    prefix + name,
+                    f"a weight > 0 when {prefix}balance is {self.balance!r} "
+                    "(a zero term has a zero median to divide by)",
+                    getattr(self, name),
+                )
 
 
 @dataclass(frozen=True)
@@ -72,10 +97,13 @@ class SensingConfig:
     bias_m: float = 0.005  # μ_x, Table 4
     std_m: float = 0.005  # σ_x, Table 4
     # Σ_H = diag(σ²) for (x, y, θ). Not in the paper. x: the vision noise σ_x; y and θ are sensed
-    # exactly (eq. 16b), so their belief is tight: 1 mm and 0.02 rad (with a loose θ belief the outer
-    # level picks tilted explored poses, and a tilted goal jams the peg in the hole). A tight y makes J_out prefer
-    # explored poses at the hole's depth over poses beside it at the sensed x.
+    # exactly (eq. 16b), so their belief is tight: 1 mm and 0.02 rad (with a loose θ belief the
+    # outer level picks tilted explored poses, and a tilted goal jams the peg in the hole). A
+    # tight y makes J_out prefer explored poses at the hole's depth over poses beside it.
     hole_std: tuple[float, float, float] = (0.005, 0.001, 0.02)
+    # "per_iteration": the hole is sensed anew every iteration (Algorithm 1, Fig. 6);
+    # "per_run": once per run.
+    redraw: Redraw = "per_iteration"
 
     def validate(self, prefix: str = "") -> None:
         require_finite(prefix + "bias_m", self.bias_m)
@@ -99,13 +127,31 @@ class SensingConfig:
 
 
 @dataclass(frozen=True)
+class OuterConfig:
+    """How bilevel's outer level sets the DMP goal (eq. 15–16); see docs/planner.md."""
+
+    # "explored_argmin": the paper's rule, arg min J_out over the peg-tip poses P2 explored by
+    # the previous iteration. "deepest_explored": once some rollout has put P2 more than
+    # entry_depth_m below the hole's top surface, aim at the hole's sensed depth y_H (eq. 16b:
+    # exact) straight below the deepest P2 explored so far; before that, the paper's rule.
+    rule: OuterRule = "explored_argmin"
+    # The goal's tilt: the chosen explored pose's ("explored") or the sensed θ_H ("sensed").
+    goal_tilt: GoalTilt = "explored"
+    # deepest_explored: how far below the top surface counts as inside the chamfer or hole.
+    entry_depth_m: float = 0.001
+
+    def validate(self, prefix: str = "") -> None:
+        require_positive(self, ("entry_depth_m",), prefix)
+
+
+@dataclass(frozen=True)
 class PlannerConfig:
     method: Method = "bilevel"
     iterations: int = 50  # Table 4 / §3.3
     # Start of the peg centre's x (paper §3.3: x_P from −0.04 to −0.03 m).
     start_x_m: float = -0.035
     # Height of the peg tip P2 above the hole's top surface at the start. Not in the paper: 5 mm
-    # clears the surface so the first contact is made by the planned motion.
+    # clears the surface so the first contact is made by the planned motion (Fig. 8: ≈0.1 m).
     start_height_m: float = 0.005
     # Extra simulated time after the DMP's duration T, so the peg settles before success is judged.
     # Not in the paper; 0.3 s is ~2 periods of the peg on the 1000 N/m spring.
@@ -113,28 +159,40 @@ class PlannerConfig:
     # Success: |P2 − H| (x, y) at the end. Not in the paper; 1 mm is well inside the hole
     # (the chamfer alone is 2.5 mm deep) and tighter than the 5 mm visual noise.
     success_tolerance_m: float = 0.001
-    # The run's seed: it draws the sensed holes and, with optimizer.seed, the exploration noise.
-    # Both methods at one seed see the same sensed holes and exploration noise (common random
-    # numbers); different seeds are independent.
+    # The run's seed. With optimizer.seed and the run's sweep levels (all but the method's), it
+    # seeds the sensed holes, the exploration noise and the deployment trials (see run_seeds).
     seed: int = 0
+    # After the last iteration, the learned policy (mean weights, no exploration) is deployed
+    # this many times, each against a freshly sensed hole: the headline success metric.
+    deploy_trials: int = 10
     # Stop early when the best J_inn of the last `convergence_window` iterations varies by less
     # than `convergence_tolerance` relative to its mean; 0 runs the whole budget (the paper's
     # bands compare runs over the same iterations).
     convergence_window: int = 0
     convergence_tolerance: float = 0.01
-    # T = 3 s (not in the paper): 3.3 s simulated per rollout, ≈110 s per 50 × 10 run here.
+    # T = 3 s (not in the paper): 3.3 s simulated per rollout with the settling time.
     dmp: DmpConfig = field(default_factory=lambda: DmpConfig(duration_s=3.0))
     optimizer: OptimizerConfig = field(default_factory=OptimizerConfig)
     costs: CostConfig = field(default_factory=CostConfig)
     sensing: SensingConfig = field(default_factory=SensingConfig)
+    outer: OuterConfig = field(default_factory=OuterConfig)
 
     def validate(self, prefix: str = "") -> None:
         require(self.method in METHODS, prefix + "method", f"one of {list(METHODS)}", self.method)
         require(self.iterations >= 1, prefix + "iterations", "an integer >= 1", self.iterations)
         require_finite(prefix + "start_x_m", self.start_x_m)
         require_positive(self, ("start_height_m", "success_tolerance_m"), prefix)
+        require(
+            self.start_height_m <= MAX_START_HEIGHT_M,
+            prefix + "start_height_m",
+            f"a height <= {MAX_START_HEIGHT_M} m above the hole's top surface",
+            self.start_height_m,
+        )
         require_positive(self, ("settle_s",), prefix, allow_zero=True)
         require(self.seed >= 0, prefix + "seed", "an integer >= 0", self.seed)
+        require(
+            self.deploy_trials >= 1, prefix + "deploy_trials", "an integer >= 1", self.deploy_trials
+        )
         require(
             self.convergence_window >= 0,
             prefix + "convergence_window",
@@ -154,9 +212,11 @@ class PlannerConfig:
                 raise ConfigError(f"{prefix}{section}.{error}") from None
         self.costs.validate(prefix + "costs.")
         self.sensing.validate(prefix + "sensing.")
+        self.outer.validate(prefix + "outer.")
 
 
 # --------------------------------------------------------------------------------------------
+# Costs (eq. 11, 15) and the outer level (eq. 15–16)
 
 
 @dataclass(frozen=True)
@@ -166,6 +226,10 @@ class CostTerms:
     regularization: float
     spring_energy: float
     hole_distance: float
+
+    @property
+    def values(self) -> NDArray[np.float64]:
+        return np.array([self.regularization, self.spring_energy, self.hole_distance])
 
     @property
     def total(self) -> float:
@@ -210,37 +274,107 @@ def outer_goal(
     ]
 
 
+CLEAN_OVERLAP_M = 1.0e-4
+"""deepest_explored only trusts P2 samples whose peg–hole overlap is at most this: a one-step
+solver transient (up to 1 mm, docs/simulation.md) must not read as a pose inside the hole."""
+
+
+class OuterLevel:
+    """Bilevel's goal (eq. 15–16) from what the rollouts explored; ``goal`` is the P2 target.
+
+    Q_P is the previous iteration's explored P2 poses (Algorithm 1); ``deepest`` is the deepest
+    clean P2 pose of the whole run so far (used by the ``deepest_explored`` rule).
+    """
+
+    def __init__(self, config: PlannerConfig, hole_depth_m: float) -> None:
+        self.config = config
+        self.hole_depth_m = hole_depth_m
+        self.explored: NDArray[np.float64] | None = None
+        self.deepest: NDArray[np.float64] | None = None
+
+    def observe(self, traces: list[Trace], samples: slice) -> None:
+        """Q_P ← the P2 poses of this iteration's non-diverged rollouts."""
+        ok = [t for t in traces if t.ok]
+        if not ok:
+            return
+        self.explored = np.vstack([t.q_peg_bottom[samples] for t in ok])
+        clean = np.vstack(
+            [t.q_peg_bottom[samples][t.penetration_m[samples] <= CLEAN_OVERLAP_M] for t in ok]
+        )
+        if clean.size:
+            candidate = clean[int(np.argmin(clean[:, 1]))]
+            if self.deepest is None or candidate[1] < self.deepest[1]:
+                self.deepest = candidate
+
+    def goal(self, sensed: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The P2 pose the DMP aims at: q̃_H until something was explored."""
+        cfg = self.config.outer
+        if self.explored is None:
+            return sensed.copy()
+        top_y = sensed[1] + self.hole_depth_m  # y_H is sensed exactly (eq. 16b)
+        if (
+            cfg.rule == "deepest_explored"
+            and self.deepest is not None
+            and self.deepest[1] < top_y - cfg.entry_depth_m
+        ):
+            chosen = np.array([self.deepest[0], sensed[1], self.deepest[2]])
+        else:
+            chosen = outer_goal(self.explored, sensed, self.config.sensing).copy()
+        if cfg.goal_tilt == "sensed":
+            chosen[2] = sensed[2]
+        return chosen
+
+
+def run_seeds(config: PlannerConfig, seed_key: str = "") -> dict[str, int]:
+    """The run's independent streams, from ``planner.seed``, ``optimizer.seed`` and the run's
+    sweep levels other than the method's (``seed_key``): sensed holes (``noise``), exploration
+    noise, and deployment trials. Runs that differ only in method share them (common random
+    numbers); any other difference gives independent streams."""
+    words = np.frombuffer(hashlib.sha256(seed_key.encode()).digest(), dtype=np.uint32)
+    root = np.random.SeedSequence([config.seed, config.optimizer.seed, *words.tolist()])
+    noise, exploration, deployment = (int(c.generate_state(1)[0]) for c in root.spawn(3))
+    return {"noise": noise, "exploration": exploration, "deployment": deployment}
+
+
+class CostBalance:
+    """eq. 11's total, optionally with each term divided by its first-iteration median."""
+
+    def __init__(self, config: CostConfig) -> None:
+        self.config = config
+        self.divisors = np.ones(len(COST_TERMS))
+        self._fixed = config.balance == "none"
+
+    def totals(self, terms: list[CostTerms | None]) -> NDArray[np.float64]:
+        """J_inn of each rollout (NaN for diverged ones); fixes the divisors on first use."""
+        values = np.array([t.values if t else np.full(3, np.nan) for t in terms])
+        if not self._fixed:
+            medians = np.nanmedian(values, axis=0) if np.isfinite(values).any() else None
+            if medians is not None and np.all(np.isfinite(medians) & (medians > 0)):
+                self.divisors = medians
+                self._fixed = True
+        return np.sum(values / self.divisors, axis=1)
+
+
 # --------------------------------------------------------------------------------------------
-
-
-@dataclass
-class RunRecord:
-    """What a planning run produced: one row per rollout, one best trajectory per iteration."""
-
-    rollouts: pd.DataFrame
-    best_paths: pd.DataFrame
-    success_iteration: int | None
-    stop_reason: str
-    seeds: dict[str, int]
-    seconds: float
-    rollout_seconds: float
-
-    @property
-    def succeeded(self) -> bool:
-        return self.success_iteration is not None
+# The run record
 
 
 ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
-    "iteration": ("1", "iteration i (1-based)"),
-    "rollout": ("1", "rollout index within the iteration"),
-    "cost": ("1", "inner cost J_inn (eq. 11); NaN for diverged rollouts"),
+    "phase": ("", "train (Algorithm 1's rollouts) or deploy (the learned policy, no exploration)"),
+    "iteration": ("1", "iteration i (1-based); deploy rows: the iterations trained"),
+    "rollout": ("1", "rollout index within the iteration (deploy: trial index)"),
+    "cost": ("1", "inner cost J_inn (eq. 11, balanced if costs.balance); NaN for diverged"),
     "cost_regularization": ("1", "α1‖W‖² (eq. 11)"),
     "cost_spring_energy": ("1", "α2 Σ E_RP (eq. 11)"),
     "cost_hole_distance": ("1", "α3 Σ δq̃ᵀΣ_H⁻¹δq̃ (eq. 11)"),
-    "sensed_hole_x_m": ("m", "sensed hole x̃_H of this iteration (eq. 16b)"),
+    "sensed_hole_x_m": ("m", "sensed hole x̃_H (eq. 16b)"),
     "sensed_hole_y_m": ("m", "sensed hole y (exact)"),
     "sensed_hole_theta_rad": ("rad", "sensed hole θ (exact)"),
-    "goal_x_m": ("m", "DMP goal q_R(T), x"),
+    "target_x_m": ("m", "P2 pose the DMP aims at (sensed hole, or the outer level's), x"),
+    "target_y_m": ("m", "P2 target, y"),
+    "target_theta_rad": ("rad", "P2 target, θ"),
+    "target_hole_error_m": ("m", "true |target − H| (x, y): how far the goal is from the hole"),
+    "goal_x_m": ("m", "DMP goal q_R(T) (the P1 pose of the target), x"),
     "goal_y_m": ("m", "DMP goal q_R(T), y"),
     "goal_theta_rad": ("rad", "DMP goal q_R(T), θ"),
     "final_bottom_x_m": ("m", "peg tip P2 at the end, x"),
@@ -248,10 +382,10 @@ ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
     "final_bottom_theta_rad": ("rad", "peg tip P2 at the end, θ"),
     "final_hole_error_m": ("m", "true |P2 − H| (x, y) at the end"),
     "success": ("1", "final_hole_error_m <= success_tolerance_m and not diverged"),
-    "is_best": ("1", "lowest cost of its iteration"),
+    "is_best": ("1", "lowest cost of its training iteration"),
     "status": ("", "ok or diverged"),
     "reason": ("", "why the rollout diverged"),
-    "sigma": ("1", "optimizer exploration scale σ_W when sampled"),
+    "sigma": ("1", "optimizer exploration scale σ_W when sampled (0 for deploy)"),
 }
 PATH_COLUMNS: dict[str, tuple[str, str]] = {
     "iteration": ("1", "iteration i (1-based)"),
@@ -267,37 +401,162 @@ PATH_COLUMNS: dict[str, tuple[str, str]] = {
     "spring_energy_j": ("J", "spring energy E_RP (eq. 9)"),
 }
 
-Progress = Callable[[int, float, bool], None]
+
+@dataclass
+class RunRecord:
+    """What a planning run produced: one row per rollout, one best trajectory per iteration."""
+
+    rollouts: pd.DataFrame
+    best_paths: pd.DataFrame
+    success_iteration: int | None
+    deploy_success_rate: float
+    stop_reason: str
+    seeds: dict[str, int]
+    cost_divisors: list[float]
+    seconds: float
+    rollout_seconds: float
+
+    @property
+    def succeeded(self) -> bool:
+        return self.success_iteration is not None
+
+
+@dataclass(frozen=True)
+class IterationReport:
+    """What a planning job logs after each iteration."""
+
+    iteration: int
+    iterations: int
+    elapsed_s: float
+    iteration_best_cost: float
+    best_cost_so_far: float
+    successes_so_far: int
+
+    @property
+    def remaining_s(self) -> float:
+        return self.elapsed_s / self.iteration * (self.iterations - self.iteration)
+
+    def __str__(self) -> str:
+        return (
+            f"iteration {self.iteration}/{self.iterations}: best J_inn {self.iteration_best_cost:.4g}"
+            f" (so far {self.best_cost_so_far:.4g}); iterations with a successful best rollout: "
+            f"{self.successes_so_far}; elapsed {self.elapsed_s:.0f} s, about "
+            f"{self.remaining_s:.0f} s left"
+        )
+
+
+class RunRecorder:
+    """Collects the rows of ``rollouts.parquet`` and the best paths of a run."""
+
+    def __init__(self, hole: NDArray[np.float64], tolerance_m: float, scene: PegInHoleScene):
+        self.hole_xy = hole[:2]
+        self.tolerance_m = tolerance_m
+        self.scene = scene
+        self.rows: list[dict] = []
+        self.paths: list[pd.DataFrame] = []
+        self.success_iteration: int | None = None
+        self.successes = 0
+        self.best_costs: list[float] = []
+
+    def add(
+        self,
+        phase: str,
+        iteration: int,
+        sensed: NDArray[np.float64],
+        target: NDArray[np.float64],
+        traces: list[Trace],
+        terms: list[CostTerms | None],
+        costs: NDArray[np.float64],
+        sigma: float,
+    ) -> None:
+        target_error = float(np.hypot(*(target[:2] - self.hole_xy)))
+        goal = self.scene.peg_top_from_bottom(target)
+        first = len(self.rows)
+        for r, (trace, term, cost) in enumerate(zip(traces, terms, costs)):
+            final = trace.q_peg_bottom[-1] if len(trace) else np.full(3, np.nan)
+            error = float(np.hypot(*(final[:2] - self.hole_xy)))
+            self.rows.append(
+                {
+                    "phase": phase,
+                    "iteration": iteration,
+                    "rollout": r,
+                    "cost": float(cost),
+                    **dict(zip(ROLLOUT_COLUMNS_TERMS, term.values if term else [np.nan] * 3)),
+                    **_pose_columns("sensed_hole", sensed),
+                    **_pose_columns("target", target),
+                    "target_hole_error_m": target_error,
+                    **_pose_columns("goal", goal),
+                    **_pose_columns("final_bottom", final),
+                    "final_hole_error_m": error,
+                    "success": bool(trace.ok and error <= self.tolerance_m),
+                    "is_best": False,
+                    "status": trace.status,
+                    "reason": trace.reason,
+                    "sigma": sigma,
+                }
+            )
+        if phase == "train":
+            best = int(np.nanargmin(costs)) if np.any(np.isfinite(costs)) else 0
+            row = self.rows[first + best]
+            row["is_best"] = True
+            self.paths.append(_best_path(iteration, traces[best]))
+            self.best_costs.append(float(costs[best]))
+            if row["success"]:
+                self.successes += 1
+                if self.success_iteration is None:
+                    self.success_iteration = iteration
+
+    def report(self, iteration: int, iterations: int, elapsed_s: float) -> IterationReport:
+        finite = [c for c in self.best_costs if math.isfinite(c)]
+        return IterationReport(
+            iteration=iteration,
+            iterations=iterations,
+            elapsed_s=elapsed_s,
+            iteration_best_cost=self.best_costs[-1],
+            best_cost_so_far=min(finite) if finite else math.nan,
+            successes_so_far=self.successes,
+        )
+
+    def tables(self) -> tuple[pd.DataFrame, pd.DataFrame]:
+        return (
+            pd.DataFrame(self.rows)[list(ROLLOUT_COLUMNS)],
+            pd.concat(self.paths, ignore_index=True)[list(PATH_COLUMNS)],
+        )
+
+
+ROLLOUT_COLUMNS_TERMS = tuple(f"cost_{name}" for name in COST_TERMS)
+
+
+# --------------------------------------------------------------------------------------------
+# Algorithm 1
 
 
 class Planner:
     """Algorithm 1 on one scene. The scene (and its Drake diagram) is reused by every rollout."""
 
-    def __init__(self, scene: PegInHoleScene, config: PlannerConfig) -> None:
+    def __init__(self, scene: PegInHoleScene, config: PlannerConfig, seed_key: str = "") -> None:
         config.validate()
         self.scene = scene
         self.config = config
+        self.seeds = run_seeds(config, seed_key)
         hole = scene.config.hole
         self.start_bottom = np.array([config.start_x_m, hole.top_y_m + config.start_height_m, 0.0])
         self.start_robot = scene.peg_top_from_bottom(self.start_bottom)
-        duration = config.dmp.duration_s + config.settle_s
+        settle = config.settle_s
         step = scene.config.solver.time_step_s
-        self.times_s = np.arange(0.0, duration + 0.5 * step, step)
+        self.times_s = np.arange(0.0, config.dmp.duration_s + settle + 0.5 * step, step)
         every = max(1, round(config.costs.sample_period_s / step))
-        self.cost_samples = slice(0, None, every)
+        end = None
+        if not config.costs.include_settling:
+            end = int(np.searchsorted(self.times_s, config.dmp.duration_s + 0.5 * step))
+        self.cost_samples = slice(0, end, every)
 
     @classmethod
-    def from_configs(cls, scene: SceneConfig, config: PlannerConfig) -> Planner:
+    def from_configs(cls, scene: SceneConfig, config: PlannerConfig, seed_key: str = "") -> Planner:
         """A planner on a new scene. The planner never reads contact-patch counts, so the scene
         skips that per-step callback."""
-        return cls(PegInHoleScene(scene.replace(solver__log_contact_patches=False)), config)
-
-    @property
-    def seeds(self) -> dict[str, int]:
-        """The run's seeds: the sensed-hole generator's and the optimizer's (derived)."""
-        cfg = self.config
-        exploration = np.random.SeedSequence([cfg.optimizer.seed, cfg.seed]).generate_state(1)[0]
-        return {"noise": cfg.seed, "exploration": int(exploration)}
+        scene_config = scene.replace(solver__log_contact_patches=False)
+        return cls(PegInHoleScene(scene_config), config, seed_key)
 
     def sense_hole(self, rng: np.random.Generator) -> NDArray[np.float64]:
         """q̃_H = [N(x_H + μ_x, σ_x²), y_H, θ_H] (eq. 16b)."""
@@ -305,10 +564,14 @@ class Planner:
         sensing = self.config.sensing
         return np.array([rng.normal(truth[0] + sensing.bias_m, sensing.std_m), truth[1], truth[2]])
 
+    def dmp(self, target: NDArray[np.float64]) -> Dmp:
+        """The DMP from the start to q_R(T) = the P1 pose of the peg whose tip is at ``target``."""
+        return Dmp(self.config.dmp, self.start_robot, self.scene.peg_top_from_bottom(target))
+
     def evaluate(
         self, dmp: Dmp, weights: NDArray[np.float64], sensed_hole: NDArray[np.float64]
     ) -> tuple[Trace, CostTerms | None]:
-        """One rollout: DMP → simulator → J_inn (None if the simulation diverged)."""
+        """One rollout: DMP → simulator → J_inn's terms (None if the simulation diverged)."""
         poses, _ = dmp.rollout(weights, self.times_s)
         trace = self.scene.rollout(RobotTrajectory(self.times_s, poses))
         if not trace.ok:
@@ -326,88 +589,82 @@ class Planner:
         )
         return trace, terms
 
-    def run(self, progress: Progress | None = None) -> RunRecord:
+    def target(self, outer: OuterLevel, sensed: NDArray[np.float64]) -> NDArray[np.float64]:
+        """One-level aims at the sensed hole; bilevel where its outer level says."""
+        return sensed.copy() if self.config.method == "one_level" else outer.goal(sensed)
+
+    def run(self, progress: Callable[[IterationReport], None] | None = None) -> RunRecord:
+        """Algorithm 1, then the deployment trials of the learned policy."""
         cfg = self.config
-        seeds = self.seeds
-        rng = np.random.default_rng(seeds["noise"])
+        noise = np.random.default_rng(self.seeds["noise"])
         optimizer = make_optimizer(
-            dataclasses.replace(cfg.optimizer, seed=seeds["exploration"]),
+            dataclasses.replace(cfg.optimizer, seed=self.seeds["exploration"]),
             np.zeros(3 * cfg.dmp.n_basis),
         )
+        outer = OuterLevel(cfg, self.scene.config.hole.depth_m)
+        balance = CostBalance(cfg.costs)
+        recorder = RunRecorder(self.scene.hole_pose, cfg.success_tolerance_m, self.scene)
         stop_reason = f"iteration budget ({cfg.iterations})"
-        best_costs: list[float] = []
-        hole_xy = self.scene.hole_pose[:2]
-        rows: list[dict] = []
-        paths: list[pd.DataFrame] = []
-        explored: NDArray[np.float64] | None = None
-        success_iteration: int | None = None
-        rollout_seconds = 0.0
         started = time.perf_counter()
+        rollout_seconds = 0.0
+        sensed = self.sense_hole(noise)
         for iteration in range(1, cfg.iterations + 1):
-            sensed = self.sense_hole(rng)
-            target = (
-                sensed
-                if cfg.method == "one_level" or explored is None
-                else outer_goal(explored, sensed, cfg.sensing)
-            )
-            dmp = Dmp(cfg.dmp, self.start_robot, self.scene.peg_top_from_bottom(target))
+            if iteration > 1 and cfg.sensing.redraw == "per_iteration":
+                sensed = self.sense_hole(noise)
+            target = self.target(outer, sensed)
+            dmp = self.dmp(target)
             sigma = optimizer.sigma
             samples = optimizer.ask()
-            costs = np.full(len(samples), np.nan)
-            traces: list[Trace] = []
-            for r, weights in enumerate(samples):
-                t0 = time.perf_counter()
-                trace, terms = self.evaluate(dmp, weights, sensed)
-                rollout_seconds += time.perf_counter() - t0
-                traces.append(trace)
-                final = trace.q_peg_bottom[-1] if len(trace) else np.full(3, np.nan)
-                error = float(np.hypot(*(final[:2] - hole_xy)))
-                costs[r] = terms.total if terms else np.nan
-                rows.append(
-                    {
-                        "iteration": iteration,
-                        "rollout": r,
-                        "cost": costs[r],
-                        "cost_regularization": terms.regularization if terms else np.nan,
-                        "cost_spring_energy": terms.spring_energy if terms else np.nan,
-                        "cost_hole_distance": terms.hole_distance if terms else np.nan,
-                        **_pose_columns("sensed_hole", sensed),
-                        **_pose_columns("goal", dmp.goal),
-                        **_pose_columns("final_bottom", final),
-                        "final_hole_error_m": error,
-                        "success": bool(trace.ok and error <= cfg.success_tolerance_m),
-                        "is_best": False,
-                        "status": trace.status,
-                        "reason": trace.reason,
-                        "sigma": sigma,
-                    }
-                )
+            t0 = time.perf_counter()
+            traces, terms = zip(*(self.evaluate(dmp, w, sensed) for w in samples))
+            rollout_seconds += time.perf_counter() - t0
+            costs = balance.totals(list(terms))
             optimizer.tell(samples, costs)
-            ok = [t for t in traces if t.ok]
-            explored = (
-                np.vstack([t.q_peg_bottom[self.cost_samples] for t in ok]) if ok else explored
-            )
-            best = int(np.nanargmin(costs)) if np.any(np.isfinite(costs)) else 0
-            rows[-len(samples) + best]["is_best"] = True
-            paths.append(_best_path(iteration, traces[best]))
-            best_success = rows[-len(samples) + best]["success"]
-            if best_success and success_iteration is None:
-                success_iteration = iteration
+            outer.observe(list(traces), self.cost_samples)
+            recorder.add("train", iteration, sensed, target, traces, terms, costs, sigma)
             if progress:
-                progress(iteration, float(costs[best]), bool(best_success))
-            best_costs.append(float(costs[best]))
-            if self._converged(best_costs):
+                progress(recorder.report(iteration, cfg.iterations, time.perf_counter() - started))
+            if self._converged(recorder.best_costs):
                 stop_reason = f"converged at iteration {iteration}"
                 break
+        deployment = self.deploy(optimizer.mean, outer, balance, recorder, iteration)
+        rollouts, best_paths = recorder.tables()
         return RunRecord(
-            rollouts=pd.DataFrame(rows)[list(ROLLOUT_COLUMNS)],
-            best_paths=pd.concat(paths, ignore_index=True)[list(PATH_COLUMNS)],
-            success_iteration=success_iteration,
+            rollouts=rollouts,
+            best_paths=best_paths,
+            success_iteration=recorder.success_iteration,
+            deploy_success_rate=deployment,
             stop_reason=stop_reason,
-            seeds=seeds,
+            seeds=self.seeds,
+            cost_divisors=balance.divisors.tolist(),
             seconds=time.perf_counter() - started,
             rollout_seconds=rollout_seconds,
         )
+
+    def deploy(
+        self,
+        policy: NDArray[np.float64],
+        outer: OuterLevel,
+        balance: CostBalance,
+        recorder: RunRecorder,
+        iterations_trained: int,
+    ) -> float:
+        """Run the learned mean weights (no exploration) ``deploy_trials`` times, each against a
+        freshly sensed hole; the fraction that inserts (true |P2 − H| ≤ tolerance)."""
+        rng = np.random.default_rng(self.seeds["deployment"])
+        successes = 0
+        for trial in range(self.config.deploy_trials):
+            sensed = self.sense_hole(rng)
+            target = self.target(outer, sensed)
+            trace, terms = self.evaluate(self.dmp(target), policy, sensed)
+            first = len(recorder.rows)
+            recorder.add(
+                "deploy", iterations_trained, sensed, target, [trace], [terms],
+                balance.totals([terms]), 0.0,
+            )
+            recorder.rows[first]["rollout"] = trial
+            successes += recorder.rows[first]["success"]
+        return successes / self.config.deploy_trials
 
     def _converged(self, best_costs: list[float]) -> bool:
         window = self.config.convergence_window

@@ -132,7 +132,11 @@ def cost_band_figure(bands: pd.DataFrame, group: str = "method") -> plt.Figure:
             color=line.get_color(),
             alpha=0.25,
         )
-    ax.set_yscale("log")
+    if (bands["mean"] > 0).any():
+        ax.set_yscale("log")
+    else:
+        ax.text(0.5, 0.5, "no finite cost: every rollout diverged", transform=ax.transAxes,
+                ha="center")
     ax.set_xlabel("iteration")
     ax.set_ylabel("best inner cost $J_{inn}$ (eq. 11, dimensionless)")
     ax.grid(alpha=0.3, which="both")
@@ -141,6 +145,49 @@ def cost_band_figure(bands: pd.DataFrame, group: str = "method") -> plt.Figure:
         "Mean and ±1 s.d. band of the best cost over starts and noise seeds (paper Fig. 9)",
         fontsize=9,
     )
+    fig.tight_layout()
+    return fig
+
+
+def deploy_success_figure(table: pd.DataFrame) -> plt.Figure:
+    """Deployment success with its 95 % interval over runs, per method (colour) and per level of
+    every sweep dimension (rows)."""
+    groups = list(dict.fromkeys(zip(table["dimension"], table["level"])))
+    methods = sorted(table["method"].unique())
+    fig, ax = plt.subplots(figsize=(7, 0.45 * len(groups) * len(methods) + 1.4))
+    colours = plt.get_cmap("tab10")
+    y = 0
+    ticks, labels = [], []
+    for dimension, level in groups:
+        part = table[(table["dimension"] == dimension) & (table["level"] == level)]
+        for m, method in enumerate(methods):
+            row = part[part["method"] == method]
+            if row.empty:
+                continue
+            row = row.iloc[0]
+            ax.errorbar(
+                row["deploy_success_rate"],
+                y,
+                xerr=[
+                    [row["deploy_success_rate"] - row["deploy_ci_low"]],
+                    [row["deploy_ci_high"] - row["deploy_success_rate"]],
+                ],
+                fmt="o",
+                color=colours(m),
+                capsize=3,
+                label=method if (dimension, level) == groups[0] else None,
+            )
+            ticks.append(y)
+            name = "all runs" if dimension == "all" else f"{dimension.rsplit('.', 1)[-1]} = {level}"
+            labels.append(f"{name} (n = {int(row['runs'])})")
+            y -= 1
+        y -= 0.5
+    ax.set_yticks(ticks, labels, fontsize=7)
+    ax.set_xlim(-0.02, 1.02)
+    ax.set_xlabel("deployment success rate (fraction of trials that inserted; 95 % interval over runs)")
+    ax.grid(alpha=0.3, axis="x")
+    ax.legend(fontsize=8, loc="lower right")
+    ax.set_title("Would the learned policy insert if deployed? (beyond the paper)", fontsize=9)
     fig.tight_layout()
     return fig
 

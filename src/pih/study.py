@@ -9,6 +9,7 @@ paths; :func:`resolve` applies it and validates the result strictly.
 from __future__ import annotations
 
 import copy
+import itertools
 import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -18,11 +19,59 @@ import numpy as np
 import pandas as pd
 
 from pih.config import ConfigError, from_mapping
+from pih.provenance import canonical_json
 from pih.planner import PlannerConfig
 from pih.scene import SceneConfig
-from pih.traces import read_metadata, read_provenance
+from pih.traces import read_provenance
 
 METHOD_KEY = "planner.method"
+OUTER_PREFIX = "planner.outer."
+"""Sweep keys under this prefix configure bilevel's outer level; one-level runs ignore them."""
+
+
+def is_method_key(path: str) -> bool:
+    """Whether a sweep key selects the method (the method or its outer level) rather than the
+    situation (start, seed, noise, scene): runs differing only in such keys share random draws."""
+    return path == METHOD_KEY or path.startswith(OUTER_PREFIX)
+
+
+def seed_key(point: Mapping[str, Any]) -> str:
+    """Stable encoding of a sweep point's non-method levels: the per-run seed is derived from it
+    (:func:`pih.planner.run_seeds`), so every other difference gives independent draws."""
+    return canonical_json({k: _plain(v) for k, v in point.items() if not is_method_key(k)})
+
+
+def sweep_points(sweep: Mapping[str, list[Any]]) -> list[dict[str, Any]]:
+    """The planning runs of a sweep: the Cartesian product of its levels, except that one-level
+    runs are made once, at the first level of every ``planner.outer.*`` key (they ignore them).
+    Duplicate levels and keys whose directory names would collide are errors."""
+    for path, levels in sweep.items():
+        plain = [canonical_json(_plain(v)) for v in levels]
+        repeated = sorted({v for v in plain if plain.count(v) > 1})
+        if repeated:
+            raise ConfigError(f"sweep.{path}: repeated level(s) {repeated}; each run must be unique")
+    names: dict[str, str] = {}
+    for path in sweep:
+        name = path.rsplit(".", 1)[-1]
+        if name in names:
+            raise ConfigError(
+                f"sweep: keys {names[name]!r} and {path!r} both end in {name!r}, which names "
+                "their level in run directories, so the directories would collide; sweep only one"
+            )
+        names[name] = path
+    points = []
+    for levels in itertools.product(*sweep.values()):
+        point = dict(zip(sweep, (_plain(v) for v in levels)))
+        if point.get(METHOD_KEY) == "one_level" and any(
+            point[k] != _plain(sweep[k][0]) for k in point if k.startswith(OUTER_PREFIX)
+        ):
+            continue
+        points.append(point)
+    return points
+
+
+def _plain(value: Any) -> Any:
+    return value.item() if isinstance(value, np.generic) else value
 
 
 def override(config: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, Any]:
@@ -39,9 +88,7 @@ def override(config: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, A
             raise ConfigError(
                 f"sweep key {path!r}: no such config key {leaf!r}; allowed: {sorted(node)}"
             )
-        node[leaf] = (
-            value.item() if isinstance(value, np.generic) else value
-        )  # Paramspace gives numpy scalars
+        node[leaf] = _plain(value)  # Paramspace gives numpy scalars
     return out
 
 
@@ -55,8 +102,10 @@ def resolve(
     )
 
 
-def wilson_interval(successes: int, trials: int, z: float = 1.96) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion (95 % for z = 1.96)."""
+def wilson_interval(successes: float, trials: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (95 % for z = 1.96). Over runs, with each
+    run's success fraction as one observation, it is conservative: the variance p(1 − p) it
+    assumes bounds the true between-run variance of fractions with mean p."""
     if trials == 0:
         return (math.nan, math.nan)
     p = successes / trials
@@ -68,21 +117,46 @@ def wilson_interval(successes: int, trials: int, z: float = 1.96) -> tuple[float
 
 
 def final_success_fraction(rollouts: pd.DataFrame, last: int = 10) -> float:
-    """Fraction of the last ``last`` iterations whose best rollout succeeded: whether a run
-    *stays* successful, which a lucky sensed-hole draw in one iteration cannot fake."""
+    """Fraction of the last ``last`` training iterations whose best rollout succeeded."""
     best = rollouts[rollouts["is_best"]].sort_values("iteration")
     return float(best["success"].tail(last).mean())
 
 
+def variant(planner: Mapping[str, Any]) -> str:
+    """A run's method as the study compares it: ``one_level``, or ``bilevel/<outer rule>``."""
+    method = planner["method"]
+    return method if method == "one_level" else f"{method}/{planner['outer']['rule']}"
+
+
+def run_summary(rollouts: pd.DataFrame, tolerance_m: float) -> dict[str, Any]:
+    """One planning run's outcome: deployment success (the headline) and the training view."""
+    train = rollouts[rollouts["phase"] == "train"]
+    deploy = rollouts[rollouts["phase"] == "deploy"]
+    best = train[train["is_best"]].sort_values("iteration")
+    successes = best.loc[best["success"], "iteration"]
+    goal_reached = best.loc[best["target_hole_error_m"] <= tolerance_m, "iteration"]
+    return {
+        "deploy_success_rate": float(deploy["success"].mean()) if len(deploy) else math.nan,
+        "final_iteration_success": bool(best["success"].iloc[-1]),
+        "final_success_fraction": final_success_fraction(train),
+        "first_success_iteration": int(successes.iloc[0]) if len(successes) else None,
+        "goal_iteration": int(goal_reached.iloc[0]) if len(goal_reached) else None,
+        "diverged_fraction": float((train["status"] != "ok").mean()),
+        "deploy_diverged_fraction": float((deploy["status"] != "ok").mean())
+        if len(deploy)
+        else math.nan,
+    }
+
+
 _LEVEL_COLUMNS = {
-    "method": ("", "planning method"),
+    "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
     "dimension": ("", "sweep dimension the row is split by ('all': not split)"),
     "level": ("", "level of that dimension"),
 }
 BEST_COST_COLUMNS: dict[str, tuple[str, str]] = {
     "iteration": ("1", "iteration"),
     "cost": ("1", "best inner cost J_inn of the iteration (eq. 11)"),
-    "method": ("", "planning method"),
+    "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
     "run": ("", "run directory (sweep point)"),
 }
 BAND_COLUMNS: dict[str, tuple[str, str]] = {
@@ -91,63 +165,70 @@ BAND_COLUMNS: dict[str, tuple[str, str]] = {
     "mean": ("1", "mean over runs of the best J_inn"),
     "std": ("1", "standard deviation over runs"),
     "var": ("1", "variance over runs"),
-    "count": ("1", "runs"),
+    "count": ("1", "runs with a finite best J_inn"),
     "median": ("1", "median over runs"),
 }
 SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
     **_LEVEL_COLUMNS,
-    "runs": ("1", "planning runs"),
-    "successes": ("1", "runs whose best rollout succeeded in some iteration"),
-    "success_rate": ("1", "successes / runs"),
-    "ci95_low": ("1", "Wilson 95 % interval, low"),
-    "ci95_high": ("1", "Wilson 95 % interval, high"),
-    "median_iterations_to_success": ("1", "median first successful iteration"),
-    "mean_final_success_fraction": ("1", "mean fraction of the last 10 iterations that succeeded"),
-    "diverged_rollout_fraction": ("1", "mean fraction of diverged rollouts"),
-    "median_run_seconds": ("s", "median wall time per run"),
+    "runs": ("1", "independent planning runs"),
+    "deploy_success_rate": (
+        "1",
+        "mean over runs of the fraction of deployment trials that inserted (the headline)",
+    ),
+    "deploy_ci_low": ("1", "95 % Wilson interval over runs (each run one observation), low"),
+    "deploy_ci_high": ("1", "95 % Wilson interval over runs, high"),
+    "final_iteration_success_rate": ("1", "runs whose last iteration's best rollout succeeded"),
+    "mean_last10_success_fraction": (
+        "1",
+        "mean fraction of the last 10 iterations whose best rollout succeeded",
+    ),
+    "first_success_rate": ("1", "runs whose best rollout succeeded in some iteration"),
+    "median_first_success_iteration": ("1", "median first iteration with a successful best"),
+    "median_goal_iteration": (
+        "1",
+        "median first iteration whose goal was within the success tolerance of the true hole "
+        "(runs that never got there count as never)",
+    ),
+    "diverged_rollout_fraction": ("1", "mean fraction of diverged training rollouts"),
 }
 
 
 def run_tables(
-    rollout_files: Iterable[str | Path], sweep_keys: list[str], default_method: str
+    rollout_files: Iterable[str | Path], sweep_keys: list[str]
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """From planning-run records: the best cost per iteration of every run (long table) and one
-    summary row per run, each tagged with the run's method and sweep levels."""
+    summary row per run, each tagged with its method (:func:`variant`) and sweep levels."""
     bests, summaries = [], []
     for path in map(Path, rollout_files):
-        point = read_provenance(path)["sweep_point"]
-        run = read_metadata(path, "run")
+        record = read_provenance(path)
+        planner = record["config"]["planner"]
         rollouts = pd.read_parquet(path)
-        tags = {"method": point.get(METHOD_KEY, default_method), "run": path.parent.name}
-        tags.update({key: str(point[key]) for key in sweep_keys if key != METHOD_KEY})
-        best = rollouts[rollouts["is_best"]][["iteration", "cost"]]
-        bests.append(best.assign(**tags))
-        summaries.append(
-            {
-                **tags,
-                "succeeded": run["success_iteration"] is not None,
-                "success_iteration": run["success_iteration"],
-                "final_success_fraction": final_success_fraction(rollouts),
-                "diverged_fraction": float((rollouts["status"] != "ok").mean()),
-                "seconds": run["seconds"],
-            }
-        )
+        tags = {"method": variant(planner), "run": path.parent.name}
+        point = record["sweep_point"]
+        tags.update({key: str(point[key]) for key in split_keys(sweep_keys)})
+        train = rollouts[(rollouts["phase"] == "train") & rollouts["is_best"]]
+        bests.append(train[["iteration", "cost"]].assign(**tags))
+        summaries.append({**tags, **run_summary(rollouts, planner["success_tolerance_m"])})
     return pd.concat(bests, ignore_index=True), pd.DataFrame(summaries)
+
+
+def split_keys(sweep_keys: list[str]) -> list[str]:
+    """The sweep dimensions tables are split by: all but the method's (that is the variant)."""
+    return [key for key in sweep_keys if not is_method_key(key)]
 
 
 def level_columns(sweep_keys: list[str]) -> dict[str, tuple[str, str]]:
     """Unit specs of the per-run sweep-level columns of :func:`run_tables`' outputs."""
-    return {key: ("", f"sweep level of {key}") for key in sweep_keys if key != METHOD_KEY}
+    return {key: ("", f"sweep level of {key}") for key in split_keys(sweep_keys)}
 
 
 def _by_dimension(frame: pd.DataFrame, sweep_keys: list[str], table) -> pd.DataFrame:
     """``table(part)`` per method overall and per method × level of every other dimension."""
     parts = [table(frame).assign(dimension="all", level="all")]
-    for key in sweep_keys:
-        if key != METHOD_KEY:
-            parts += [
-                table(part).assign(dimension=key, level=level) for level, part in frame.groupby(key)
-            ]
+    for key in split_keys(sweep_keys):
+        parts += [
+            table(part).assign(dimension=key, level=level) for level, part in frame.groupby(key)
+        ]
     return pd.concat(parts, ignore_index=True)
 
 
@@ -164,36 +245,46 @@ def cost_bands(runs: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
     return _by_dimension(runs, sweep_keys, bands)
 
 
+def _median_or_never(values: pd.Series, runs: int) -> float:
+    """Median over runs where a missing value means "never" (sorted after every number)."""
+    reached = np.sort(values.dropna().to_numpy(dtype=float))
+    if runs == 0 or len(reached) <= (runs - 1) // 2:
+        return math.nan
+    ordered = np.concatenate([reached, np.full(runs - len(reached), np.inf)])
+    median = float(np.median(ordered))
+    return median if math.isfinite(median) else math.nan
+
+
 def success_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
-    """Per method, overall and per level of every other dimension: success rate (first success
-    within the budget) with a Wilson 95 % interval, median iterations to success, mean
-    final-success fraction, diverged-rollout fraction and median seconds per run."""
+    """Per method, overall and per level of every other dimension: deployment success with a
+    95 % interval over independent runs, and the training-time success measures."""
 
     def table(part: pd.DataFrame) -> pd.DataFrame:
         rows = []
         for method, runs in part.groupby("method"):
-            successes = int(runs["succeeded"].sum())
-            low, high = wilson_interval(successes, len(runs))
-            iterations = runs.loc[runs["succeeded"], "success_iteration"]
+            n = len(runs)
+            rate = float(runs["deploy_success_rate"].mean())
+            low, high = wilson_interval(rate * n, n)
             rows.append(
                 {
                     "method": method,
-                    "runs": len(runs),
-                    "successes": successes,
-                    "success_rate": successes / len(runs),
-                    "ci95_low": low,
-                    "ci95_high": high,
-                    "median_iterations_to_success": float(iterations.median())
-                    if len(iterations)
-                    else math.nan,
-                    "mean_final_success_fraction": float(runs["final_success_fraction"].mean()),
+                    "runs": n,
+                    "deploy_success_rate": rate,
+                    "deploy_ci_low": low,
+                    "deploy_ci_high": high,
+                    "final_iteration_success_rate": float(runs["final_iteration_success"].mean()),
+                    "mean_last10_success_fraction": float(runs["final_success_fraction"].mean()),
+                    "first_success_rate": float(runs["first_success_iteration"].notna().mean()),
+                    "median_first_success_iteration": _median_or_never(
+                        runs["first_success_iteration"], n
+                    ),
+                    "median_goal_iteration": _median_or_never(runs["goal_iteration"], n),
                     "diverged_rollout_fraction": float(runs["diverged_fraction"].mean()),
-                    "median_run_seconds": float(runs["seconds"].median()),
                 }
             )
         return pd.DataFrame(rows)
 
-    return _by_dimension(summaries, sweep_keys, table)
+    return _by_dimension(summaries, sweep_keys, table)[list(SUCCESS_COLUMNS)]
 
 
 def markdown_table(frame: pd.DataFrame, float_format: str = "{:.4g}") -> str:

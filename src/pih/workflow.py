@@ -78,12 +78,6 @@ def config_schema() -> dict[str, Any]:
 def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> None:
     """Validate every section and every sweep point strictly, before any job runs."""
     from_mapping(ValidationSection, config["validation"], "validation")
-    names = [path.rsplit(".", 1)[-1] for path in config["sweep"]]
-    duplicated = sorted({n for n in names if names.count(n) > 1})
-    if duplicated:
-        raise ConfigError(
-            f"sweep: keys must end in distinct names (they name directories); repeated: {duplicated}"
-        )
     for point in points or [{}]:
         data = override(config, point)
         from_mapping(SceneConfig, data["scene"], "scene")

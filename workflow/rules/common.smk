@@ -1,9 +1,8 @@
-import itertools
-
 import pandas as pd
 from snakemake.utils import Paramspace, validate
 
 from pih.provenance import library_hash
+from pih.study import sweep_points
 from pih.workflow import check_study
 
 # Stop before any job runs if the config is malformed (schema) or out of range (library).
@@ -11,10 +10,12 @@ validate(config, "../schemas/config.schema.json")
 
 # Sweep: each key a dotted config path, each value its levels; a run's directory is named by the
 # last path components and levels ("start_x_m~-0.035_method~bilevel_seed~0").
+POINTS = sweep_points(config["sweep"])
 SWEEP_PATHS = {path.rsplit(".", 1)[-1]: path for path in config["sweep"]}
 PLANNING = Paramspace(
     pd.DataFrame(
-        list(itertools.product(*config["sweep"].values())), columns=list(SWEEP_PATHS)
+        [[p[path] for path in config["sweep"]] for p in POINTS],
+        columns=list(SWEEP_PATHS),
     ),
     filename_params="*",
     param_sep="~",
@@ -26,13 +27,7 @@ def sweep_point(wildcards):
     return {SWEEP_PATHS[k]: v for k, v in PLANNING.instance(wildcards).items()}
 
 
-check_study(
-    config,
-    [
-        {SWEEP_PATHS[k]: v for k, v in row.items()}
-        for row in PLANNING.dataframe.to_dict("records")
-    ],
-)
+check_study(config, POINTS)
 
 # Library edits re-run the jobs whose code changed (Snakemake does not track imports).
 LIBRARY_HASH = library_hash()

@@ -43,6 +43,17 @@ rule planning_aggregate:
             category="Planning",
         ),
         success_csv="results/planning/summary/success.csv",
+        ablation="results/planning/summary/ablation.parquet",
+        ablation_markdown=report(
+            "results/planning/summary/ablation.md",
+            caption="../report/ablation.rst",
+            category="Planning",
+        ),
+        fig_ablation=report(
+            "results/planning/summary/fig_deploy_success.png",
+            caption="../report/fig_deploy_success.rst",
+            category="Planning",
+        ),
         fig_bands=report(
             "results/planning/summary/fig9_cost_bands.png",
             caption="../report/fig9.rst",
@@ -68,7 +79,6 @@ rule planning_aggregate:
         runtime=10,
     params:
         sweep=config["sweep"],
-        method=config["planner"]["method"],
         scene=config["scene"],
         figure_points=FIGURE_POINTS,
         library=LIBRARY_HASH,

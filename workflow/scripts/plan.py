@@ -1,9 +1,9 @@
-"""One planning run (paper Algorithm 1) at one sweep point."""
+"""One planning run (paper Algorithm 1) at one sweep point, then its deployment trials."""
 
 from pih.config import to_mapping
 from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS, Planner
 from pih.recordings import record_planning
-from pih.study import resolve
+from pih.study import resolve, seed_key
 from pih.traces import write_table
 from pih.workflow import job_provenance, logged
 
@@ -12,38 +12,31 @@ with logged(snakemake.log[0]):
     scene, planner_config = resolve(
         {"scene": snakemake.params.scene, "planner": snakemake.params.planner}, point
     )
-    planner = Planner.from_configs(scene, planner_config)
-    record = planner.run(
-        progress=lambda i, cost, ok: print(
-            f"iteration {i}: best J_inn {cost:.4g}{' (success)' if ok else ''}", flush=True
-        )
-    )
+    key = seed_key(point)
+    planner = Planner.from_configs(scene, planner_config, key)
+    record = planner.run(progress=lambda report: print(report, flush=True))
+    summary = {
+        "success_iteration": record.success_iteration,
+        "deploy_success_rate": record.deploy_success_rate,
+        "stop_reason": record.stop_reason,
+        "cost_divisors": record.cost_divisors,
+    }
     provenance = job_provenance(
         snakemake,
         "plan",
         point=point,
-        seeds=record.seeds,
+        seeds={**record.seeds, "planner.seed": planner_config.seed},
         config={"scene": to_mapping(scene), "planner": to_mapping(planner_config)},
         simulator=scene.simulator_settings(),
-        extra={
-            "result": {
-                "success_iteration": record.success_iteration,
-                "stop_reason": record.stop_reason,
-            }
-        },
+        extra={"seed_key": key, "result": summary},
     )
-    summary = {
-        "success_iteration": record.success_iteration,
-        "stop_reason": record.stop_reason,
-        "seconds": record.seconds,
-        "rollout_seconds": record.rollout_seconds,
-    }
+    timing = {"seconds": record.seconds, "rollout_seconds": record.rollout_seconds}
     write_table(
         record.rollouts,
         snakemake.output.rollouts,
         provenance,
         ROLLOUT_COLUMNS,
-        extra_metadata={"run": summary},
+        extra_metadata={"run": summary, "timing": timing},
     )
     write_table(record.best_paths, snakemake.output.best_paths, provenance, PATH_COLUMNS)
     record_planning(
@@ -55,5 +48,6 @@ with logged(snakemake.log[0]):
         provenance,
     )
     print(
-        f"success iteration {record.success_iteration}; {record.stop_reason}; {record.seconds:.1f} s"
+        f"deployment success {record.deploy_success_rate:.0%}; first successful iteration "
+        f"{record.success_iteration}; {record.stop_reason}; {record.seconds:.1f} s"
     )

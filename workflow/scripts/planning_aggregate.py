@@ -1,4 +1,4 @@
-"""Cost bands (Fig. 9), success table, best-path figures (Fig. 8) over all planning runs."""
+"""Cost bands (Fig. 9), success and ablation tables, best-path figures (Fig. 8) over all runs."""
 
 from pathlib import Path
 
@@ -22,21 +22,25 @@ from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
     keys = list(snakemake.params.sweep)
-    runs, summaries = run_tables(snakemake.input.rollouts, keys, snakemake.params.method)
+    runs, summaries = run_tables(snakemake.input.rollouts, keys)
     bands = cost_bands(runs, keys)
     success = success_table(summaries, keys)
+    ablation = success[~success["dimension"].isin(["planner.start_x_m", "planner.seed"])]
     record = job_provenance(
         snakemake, "planning_aggregate", config={"sweep": snakemake.params.sweep}
     )
     write_table(runs, snakemake.output.runs, record, {**BEST_COST_COLUMNS, **level_columns(keys)})
     write_table(bands, snakemake.output.bands, record, BAND_COLUMNS)
     write_table(success, snakemake.output.success, record, SUCCESS_COLUMNS)
+    write_table(ablation, snakemake.output.ablation, record, SUCCESS_COLUMNS)
     write_text(snakemake.output.success_markdown, markdown_table(success))
     write_text(snakemake.output.success_csv, success.to_csv(index=False))
+    write_text(snakemake.output.ablation_markdown, markdown_table(ablation))
     overall = bands[bands["dimension"] == "all"]
     plots.save(
         plots.cost_band_figure(overall), snakemake.output.fig_bands, snakemake.output.fig_bands_pdf
     )
+    plots.save(plots.deploy_success_figure(ablation), snakemake.output.fig_ablation)
     scene = from_mapping(SceneConfig, snakemake.params.scene, "scene")
     for source, png in zip(snakemake.input.best_paths, snakemake.output.fig_paths):
         title = Path(source).parent.name
