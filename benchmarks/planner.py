@@ -1,4 +1,4 @@
-"""Benchmark: seconds per planning iteration and per full run (issue 4).
+"""Benchmark: seconds per planning iteration and per full run.
 
 Runs Algorithm 1 with the default configuration (paper Table 4: 50 iterations × 10 rollouts,
 start x_P = −0.035 m) in one process and prints wall-clock figures.
@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from pih.planner import Planner, PlannerConfig, replace
+from pih.planner import OuterConfig, Planner, PlannerConfig, replace
 from pih.scene import SceneConfig
 
 
@@ -21,11 +21,18 @@ def main() -> None:
     )
     parser.add_argument("--iterations", type=int, default=PlannerConfig().iterations)
     parser.add_argument("--method", default="bilevel", choices=["one_level", "bilevel"])
+    parser.add_argument(
+        "--rule", default="explored_argmin", choices=["explored_argmin", "deepest_explored"]
+    )
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
 
     config = replace(
-        PlannerConfig(), iterations=args.iterations, method=args.method, seed=args.seed
+        PlannerConfig(),
+        iterations=args.iterations,
+        method=args.method,
+        seed=args.seed,
+        outer=OuterConfig(rule=args.rule),
     )
     started = time.perf_counter()
     planner = Planner.from_configs(SceneConfig(), config)
@@ -37,7 +44,8 @@ def main() -> None:
         f"{record.seconds:.1f} s per run ({record.seconds / args.iterations:.2f} s per iteration, "
         f"{1000 * record.rollout_seconds / rollouts:.0f} ms per rollout incl. DMP and costs; "
         f"setup {1000 * setup:.0f} ms); success iteration {record.success_iteration}; "
-        f"{(record.rollouts['status'] != 'ok').sum()} of {rollouts} rollouts diverged"
+        f"{(record.rollouts['status'] != 'ok').sum()} of {rollouts} rollouts diverged; "
+        f"deployment success {record.deploy_success_rate:.0%}"
     )
 
 

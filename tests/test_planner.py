@@ -24,8 +24,8 @@ from pih.planner import (
     replace,
     run_seeds,
 )
-from pih.study import seed_key
 from pih.scene import SceneConfig
+from pih.study import seed_key
 
 SENSING = SensingConfig(hole_std=(0.005, 0.001, 0.02))
 
@@ -210,8 +210,12 @@ def test_convergence_stop_ends_the_run_early_and_says_why():
 
 def test_seeds_differ_between_sweep_points_and_are_shared_by_the_methods():
     config = PlannerConfig()
-    start_a = seed_key({"planner.start_x_m": -0.031, "planner.seed": 0, "planner.method": "bilevel"})
-    start_b = seed_key({"planner.start_x_m": -0.032, "planner.seed": 0, "planner.method": "bilevel"})
+    start_a = seed_key(
+        {"planner.start_x_m": -0.031, "planner.seed": 0, "planner.method": "bilevel"}
+    )
+    start_b = seed_key(
+        {"planner.start_x_m": -0.032, "planner.seed": 0, "planner.method": "bilevel"}
+    )
     one_level = seed_key(
         {"planner.start_x_m": -0.031, "planner.seed": 0, "planner.method": "one_level"}
     )

@@ -112,7 +112,9 @@ def test_config_round_trip_and_strict_keys():
     [
         ("spring", "stiffness", [-1000.0, 1000.0, 1.0], r"scene\.spring\.stiffness"),
         ("peg", "diameter_m", 0.013, r"scene\.peg\.diameter_m.*narrower than the hole"),
-        ("solver", "time_step_s", 0.0, r"scene\.solver\.time_step_s.*> 0"),
+        ("solver", "time_step_s", 0.0, r"scene\.solver\.time_step_s.*a step in"),
+        ("solver", "time_step_s", 10.0, r"scene\.solver\.time_step_s.*a step in"),
+        ("solver", "time_step_s", 1e-12, r"scene\.solver\.time_step_s.*a step in"),
         ("hole", "chamfer_width_m", -0.001, r"scene\.hole\.chamfer_width_m.*>= 0"),
         ("material", "friction", "high", r"scene\.material\.friction.*a number"),
         ("solver", "contact_model", "magic", r"scene\.solver\.contact_model.*one of"),

@@ -13,6 +13,7 @@ from pih.study import (
     final_success_fraction,
     override,
     resolve,
+    seed_key,
     success_table,
     sweep_points,
     wilson_interval,
@@ -107,3 +108,30 @@ def test_final_success_fraction_uses_the_last_best_rollouts():
     )
     assert final_success_fraction(rollouts, last=2) == 0.5
     assert final_success_fraction(rollouts, last=3) == pytest.approx(2 / 3)
+
+
+def test_variants_are_named_overrides_swept_like_a_dimension():
+    variants = {
+        "paper": {},
+        "ours": {"planner.outer.rule": "deepest_explored"},
+        "once": {"planner.sensing.redraw": "per_run"},
+    }
+    sweep = {"planner.method": ["one_level", "bilevel"], "variant": list(variants)}
+    points = sweep_points(sweep, variants)
+    # One-level ignores "ours" (an outer-level change) but not "once".
+    assert [(p["planner.method"], p["variant"]) for p in points] == [
+        ("one_level", "paper"),
+        ("one_level", "once"),
+        ("bilevel", "paper"),
+        ("bilevel", "ours"),
+        ("bilevel", "once"),
+    ]
+    config = {**base_config(), "variants": variants}
+    _, planner = resolve(config, {"variant": "ours", "planner.method": "bilevel"})
+    assert planner.outer.rule == "deepest_explored" and planner.method == "bilevel"
+    # Variants and methods share their random draws; other levels do not.
+    assert seed_key({"variant": "ours", "planner.seed": 1}) == seed_key({"planner.seed": 1})
+    with pytest.raises(ConfigError, match="sweep.variant.*'nope'"):
+        sweep_points({"variant": ["nope"]}, variants)
+    with pytest.raises(ConfigError, match="variant 'nope'"):
+        resolve(config, {"variant": "nope"})

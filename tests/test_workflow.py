@@ -102,6 +102,16 @@ def test_new_sweep_dimension_is_a_config_edit(tmp_path):
 
 
 @pytest.mark.slow
+def test_own_config_file_defines_its_own_sweep(tmp_path):
+    work = copy_workflow(tmp_path)
+    own = {"sweep": {"planner.method": ["one_level", "bilevel"]}, "figure_point": {}}
+    jobs = planned_jobs(snakemake(work, "-n", config=own))
+    assert jobs["plan"] == 2  # not 2 x the default's starts and seeds
+    ablations = planned_jobs(snakemake(work, "-n", "--configfile", "config/ablations.yaml"))
+    assert ablations["plan"] == 6 * 5 * (7 + 5)  # one-level skips the two outer-only variants
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
@@ -122,6 +132,7 @@ def test_new_sweep_dimension_is_a_config_edit(tmp_path):
         ),
         (lambda c: c["planner"].update(deploy_trials=0), "planner.deploy_trials"),
         (lambda c: c["planner"]["outer"].update(rule="newton"), "newton"),
+        (lambda c: c["sweep"].update(variant=["undefined"]), "sweep.variant"),
     ],
 )
 def test_bad_config_stops_before_any_job_naming_the_key(tmp_path, edit, message):

@@ -28,11 +28,16 @@ def main(argv: list[str] | None = None) -> int:
     for path in args.files:
         try:
             record = _provenance(path)
-        except (OSError, ValueError) as error:
-            print(f"{path}: {error}", file=sys.stderr)
+        except Exception as error:  # any unreadable file: say which, go on with the rest
+            first = str(error).splitlines()[0] if str(error) else type(error).__name__
+            print(f"{path}: not a pih output with provenance ({first})", file=sys.stderr)
             status = 1
             continue
-        value = record if args.key is None else record.get(args.key)
+        if args.key is not None and args.key not in record:
+            print(f"{path}: no key {args.key!r}; keys are {sorted(record)}", file=sys.stderr)
+            status = 1
+            continue
+        value = record if args.key is None else record[args.key]
         print(f"# {path}")
         print(json.dumps(value, indent=2, sort_keys=True))
     return status

@@ -659,8 +659,14 @@ class Planner:
             trace, terms = self.evaluate(self.dmp(target), policy, sensed)
             first = len(recorder.rows)
             recorder.add(
-                "deploy", iterations_trained, sensed, target, [trace], [terms],
-                balance.totals([terms]), 0.0,
+                "deploy",
+                iterations_trained,
+                sensed,
+                target,
+                [trace],
+                [terms],
+                balance.totals([terms]),
+                0.0,
             )
             recorder.rows[first]["rollout"] = trial
             successes += recorder.rows[first]["success"]

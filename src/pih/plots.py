@@ -135,8 +135,9 @@ def cost_band_figure(bands: pd.DataFrame, group: str = "method") -> plt.Figure:
     if (bands["mean"] > 0).any():
         ax.set_yscale("log")
     else:
-        ax.text(0.5, 0.5, "no finite cost: every rollout diverged", transform=ax.transAxes,
-                ha="center")
+        ax.text(
+            0.5, 0.5, "no finite cost: every rollout diverged", transform=ax.transAxes, ha="center"
+        )
     ax.set_xlabel("iteration")
     ax.set_ylabel("best inner cost $J_{inn}$ (eq. 11, dimensionless)")
     ax.grid(alpha=0.3, which="both")
@@ -184,7 +185,9 @@ def deploy_success_figure(table: pd.DataFrame) -> plt.Figure:
         y -= 0.5
     ax.set_yticks(ticks, labels, fontsize=7)
     ax.set_xlim(-0.02, 1.02)
-    ax.set_xlabel("deployment success rate (fraction of trials that inserted; 95 % interval over runs)")
+    ax.set_xlabel(
+        "deployment success rate (fraction of trials that inserted; 95 % interval over runs)"
+    )
     ax.grid(alpha=0.3, axis="x")
     ax.legend(fontsize=8, loc="lower right")
     ax.set_title("Would the learned policy insert if deployed? (beyond the paper)", fontsize=9)

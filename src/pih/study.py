@@ -19,8 +19,8 @@ import numpy as np
 import pandas as pd
 
 from pih.config import ConfigError, from_mapping
-from pih.provenance import canonical_json
 from pih.planner import PlannerConfig
+from pih.provenance import canonical_json
 from pih.scene import SceneConfig
 from pih.traces import read_provenance
 
@@ -29,10 +29,15 @@ OUTER_PREFIX = "planner.outer."
 """Sweep keys under this prefix configure bilevel's outer level; one-level runs ignore them."""
 
 
+VARIANT_KEY = "variant"
+"""Sweep key whose levels name entries of the config's ``variants`` (one-at-a-time ablations)."""
+
+
 def is_method_key(path: str) -> bool:
-    """Whether a sweep key selects the method (the method or its outer level) rather than the
-    situation (start, seed, noise, scene): runs differing only in such keys share random draws."""
-    return path == METHOD_KEY or path.startswith(OUTER_PREFIX)
+    """Whether a sweep key selects the method (the method, its outer level, or a named variant)
+    rather than the situation (start, seed, noise, scene): runs differing only in such keys
+    share their random draws (common random numbers), so their comparison is paired."""
+    return path in (METHOD_KEY, VARIANT_KEY) or path.startswith(OUTER_PREFIX)
 
 
 def seed_key(point: Mapping[str, Any]) -> str:
@@ -41,15 +46,21 @@ def seed_key(point: Mapping[str, Any]) -> str:
     return canonical_json({k: _plain(v) for k, v in point.items() if not is_method_key(k)})
 
 
-def sweep_points(sweep: Mapping[str, list[Any]]) -> list[dict[str, Any]]:
+def sweep_points(
+    sweep: Mapping[str, list[Any]], variants: Mapping[str, Mapping[str, Any]] | None = None
+) -> list[dict[str, Any]]:
     """The planning runs of a sweep: the Cartesian product of its levels, except that one-level
-    runs are made once, at the first level of every ``planner.outer.*`` key (they ignore them).
-    Duplicate levels and keys whose directory names would collide are errors."""
+    runs that differ only in settings of bilevel's outer level (``planner.outer.*`` keys, or
+    variants that change only those) are made once. Duplicate levels, unknown variants and keys
+    whose directory names would collide are errors."""
+    variants = variants or {}
     for path, levels in sweep.items():
         plain = [canonical_json(_plain(v)) for v in levels]
         repeated = sorted({v for v in plain if plain.count(v) > 1})
         if repeated:
-            raise ConfigError(f"sweep.{path}: repeated level(s) {repeated}; each run must be unique")
+            raise ConfigError(
+                f"sweep.{path}: repeated level(s) {repeated}; each run must be unique"
+            )
     names: dict[str, str] = {}
     for path in sweep:
         name = path.rsplit(".", 1)[-1]
@@ -59,13 +70,23 @@ def sweep_points(sweep: Mapping[str, list[Any]]) -> list[dict[str, Any]]:
                 "their level in run directories, so the directories would collide; sweep only one"
             )
         names[name] = path
-    points = []
+    unknown = [v for v in sweep.get(VARIANT_KEY, []) if v not in variants]
+    if unknown:
+        raise ConfigError(
+            f"sweep.{VARIANT_KEY}: {unknown} are not defined under variants ({sorted(variants)})"
+        )
+    points, one_level_seen = [], set()
     for levels in itertools.product(*sweep.values()):
         point = dict(zip(sweep, (_plain(v) for v in levels)))
-        if point.get(METHOD_KEY) == "one_level" and any(
-            point[k] != _plain(sweep[k][0]) for k in point if k.startswith(OUTER_PREFIX)
-        ):
-            continue
+        if point.get(METHOD_KEY) == "one_level":
+            effective = {**variants.get(point.get(VARIANT_KEY), {}), **point}
+            effective.pop(VARIANT_KEY, None)
+            effective = canonical_json(
+                {k: v for k, v in effective.items() if not k.startswith(OUTER_PREFIX)}
+            )
+            if effective in one_level_seen:
+                continue
+            one_level_seen.add(effective)
         points.append(point)
     return points
 
@@ -75,8 +96,16 @@ def _plain(value: Any) -> Any:
 
 
 def override(config: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, Any]:
-    """Deep copy of ``config`` with each dotted path of ``point`` set to its value."""
+    """Deep copy of ``config`` with each dotted path of ``point`` set to its value; a
+    ``variant`` level applies that entry of ``config["variants"]`` first."""
     out = copy.deepcopy(dict(config))
+    point = dict(point)
+    if VARIANT_KEY in point:
+        name = _plain(point.pop(VARIANT_KEY))
+        variants = config.get("variants") or {}
+        if name not in variants:
+            raise ConfigError(f"variant {name!r} is not defined under variants ({sorted(variants)})")
+        point = {**variants[name], **point}
     for path, value in point.items():
         node = out
         *parents, leaf = path.split(".")
@@ -186,8 +215,7 @@ SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
     "median_first_success_iteration": ("1", "median first iteration with a successful best"),
     "median_goal_iteration": (
         "1",
-        "median first iteration whose goal was within the success tolerance of the true hole "
-        "(runs that never got there count as never)",
+        "median first iteration whose goal was within tolerance of the true hole (never: NaN)",
     ),
     "diverged_rollout_fraction": ("1", "mean fraction of diverged training rollouts"),
 }
@@ -213,8 +241,8 @@ def run_tables(
 
 
 def split_keys(sweep_keys: list[str]) -> list[str]:
-    """The sweep dimensions tables are split by: all but the method's (that is the variant)."""
-    return [key for key in sweep_keys if not is_method_key(key)]
+    """The sweep dimensions tables are split by: all but those :func:`variant` labels name."""
+    return [key for key in sweep_keys if key not in (METHOD_KEY, OUTER_PREFIX + "rule")]
 
 
 def level_columns(sweep_keys: list[str]) -> dict[str, tuple[str, str]]:

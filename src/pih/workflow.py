@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import logging
+import traceback
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from dataclasses import dataclass, field
@@ -60,9 +61,20 @@ def config_schema() -> dict[str, Any]:
             "sweep": {
                 "type": "object",
                 "description": "dotted config path -> list of levels; planning runs are the Cartesian product",
-                "propertyNames": {"pattern": r"^(scene|planner)(\.[A-Za-z_][A-Za-z0-9_]*)+$"},
+                "propertyNames": {
+                    "pattern": r"^((scene|planner)(\.[A-Za-z_][A-Za-z0-9_]*)+|variant)$"
+                },
                 "additionalProperties": sweep_levels,
                 "minProperties": 1,
+            },
+            "variants": {
+                "type": "object",
+                "description": "named sets of dotted-path overrides, swept by the 'variant' key",
+                "additionalProperties": {
+                    "type": "object",
+                    "propertyNames": {"pattern": r"^(scene|planner)(\.[A-Za-z_][A-Za-z0-9_]*)+$"},
+                    "additionalProperties": {"type": ["number", "string", "integer", "boolean"]},
+                },
             },
             "figure_point": {
                 "type": "object",
@@ -75,9 +87,31 @@ def config_schema() -> dict[str, Any]:
     }
 
 
+OWN_SECTIONS = ("sweep", "variants", "figure_point")
+"""Sections a config file given with --configfile replaces whole instead of merging."""
+
+
+def use_own_sweep(config: dict[str, Any], configfiles: list[str]) -> None:
+    """Snakemake merges a --configfile onto config/config.yaml key by key, so a user's sweep
+    would inherit every default level. The study's sections that define *which runs* exist are
+    instead taken whole from the last command-line file that has them."""
+    import yaml
+
+    for path in configfiles:
+        with open(path) as handle:
+            data = yaml.safe_load(handle) or {}
+        for section in OWN_SECTIONS:
+            if section in data:
+                config[section] = data[section]
+
+
 def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> None:
-    """Validate every section and every sweep point strictly, before any job runs."""
+    """Validate every section, every variant and every sweep point strictly, before any job."""
     from_mapping(ValidationSection, config["validation"], "validation")
+    for name in config.get("variants") or {}:
+        data = override(config, {"variant": name})
+        from_mapping(SceneConfig, data["scene"], f"variants.{name}: scene")
+        from_mapping(PlannerConfig, data["planner"], f"variants.{name}: planner")
     for point in points or [{}]:
         data = override(config, point)
         from_mapping(SceneConfig, data["scene"], "scene")
@@ -93,7 +127,11 @@ def logged(path: str) -> Iterator[None]:
     with open(path, "w") as log, redirect_stdout(log), redirect_stderr(log):
         logging.basicConfig(stream=log, level=logging.INFO, force=True)
         logging.captureWarnings(True)
-        yield
+        try:
+            yield
+        except BaseException:
+            traceback.print_exc(file=log)  # the job's log keeps the traceback too
+            raise
 
 
 def job_provenance(

@@ -3,14 +3,16 @@ from snakemake.utils import Paramspace, validate
 
 from pih.provenance import library_hash
 from pih.study import sweep_points
-from pih.workflow import check_study
+from pih.workflow import check_study, use_own_sweep
 
+# A --configfile defines its own sweep (not merged onto the default's levels).
+use_own_sweep(config, workflow.overwrite_configfiles or [])
 # Stop before any job runs if the config is malformed (schema) or out of range (library).
 validate(config, "../schemas/config.schema.json")
 
 # Sweep: each key a dotted config path, each value its levels; a run's directory is named by the
 # last path components and levels ("start_x_m~-0.035_method~bilevel_seed~0").
-POINTS = sweep_points(config["sweep"])
+POINTS = sweep_points(config["sweep"], config.get("variants"))
 SWEEP_PATHS = {path.rsplit(".", 1)[-1]: path for path in config["sweep"]}
 PLANNING = Paramspace(
     pd.DataFrame(

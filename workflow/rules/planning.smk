@@ -18,6 +18,7 @@ rule plan:
     params:
         scene=config["scene"],
         planner=config["planner"],
+        variants=config.get("variants", {}),
         point=sweep_point,
         library=LIBRARY_HASH,
     script:

@@ -10,7 +10,12 @@ from pih.workflow import job_provenance, logged
 with logged(snakemake.log[0]):
     point = dict(snakemake.params.point)
     scene, planner_config = resolve(
-        {"scene": snakemake.params.scene, "planner": snakemake.params.planner}, point
+        {
+            "scene": snakemake.params.scene,
+            "planner": snakemake.params.planner,
+            "variants": snakemake.params.variants,
+        },
+        point,
     )
     key = seed_key(point)
     planner = Planner.from_configs(scene, planner_config, key)
