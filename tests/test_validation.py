@@ -59,22 +59,30 @@ def test_sign_conventions_map_to_whitney():
 
 
 @pytest.mark.parametrize("offset_m", [0.0005, 0.001])
-def test_perfect_simulation_has_r_one_zero_errors_and_reports_the_delay(offset_m):
+@pytest.mark.parametrize(
+    # chamfer_start finds contact where F_z passes 1 mN, under 1 µm past the theory's start,
+    # so its curves match to 1e-6 in r and 0.01 % in the errors rather than exactly.
+    ("alignment", "shift_tol_m", "r_tol", "error_tol_pct"),
+    [("chamfer_start", 1e-6, 1e-6, 1e-2), ("first_peak", 1e-8, 1e-9, 1e-4)],
+)
+def test_perfect_simulation_has_r_one_zero_errors_and_reports_the_delay(
+    offset_m, alignment, shift_tol_m, r_tol, error_tol_pct
+):
     delay = 0.0004
-    result = compare(synthetic_trace(offset_m, delay), SCENE, offset_m, CONFIG)
+    result = compare(synthetic_trace(offset_m, delay), SCENE, offset_m, CONFIG, alignment)
     metrics = result.metrics
-    assert metrics["alignment_shift_m"] == pytest.approx(-delay, abs=1e-8)
-    assert metrics["r_f_x"] == pytest.approx(1.0, abs=1e-9)
-    assert metrics["r_f_z"] == pytest.approx(1.0, abs=1e-9)
+    assert metrics["alignment_shift_m"] == pytest.approx(-delay, abs=shift_tol_m)
+    assert metrics["r_f_x"] == pytest.approx(1.0, abs=r_tol)
+    assert metrics["r_f_z"] == pytest.approx(1.0, abs=r_tol)
     for key in ("initial_f_x", "initial_f_z", "final_f_x", "final_f_z", "final_theta"):
-        assert metrics[f"rel_err_{key}_pct"] == pytest.approx(0.0, abs=1e-4), key
-    assert pooled_correlation([result.aligned])["r_f_z"] == pytest.approx(1.0, abs=1e-9)
+        assert metrics[f"rel_err_{key}_pct"] == pytest.approx(0.0, abs=error_tol_pct), key
+    assert pooled_correlation([result.aligned])["r_f_z"] == pytest.approx(1.0, abs=r_tol)
 
 
 def test_a_scaled_force_shows_up_as_relative_error_not_in_r():
     trace = synthetic_trace(0.001, 0.0)
     trace.contact_force[:, 1] *= 1.1
-    metrics = compare(trace, SCENE, 0.001, CONFIG).metrics
+    metrics = compare(trace, SCENE, 0.001, CONFIG, "first_peak").metrics
     assert metrics["r_f_z"] == pytest.approx(1.0, abs=1e-9)
     assert metrics["rel_err_final_f_z_pct"] == pytest.approx(10.0, rel=1e-6)
     assert metrics["rel_err_final_f_x_pct"] == pytest.approx(0.0, abs=1e-6)
@@ -126,5 +134,9 @@ def test_real_insertion_matches_whitney_in_shape():
     assert one_point["sim_f_x_n"].median() < 0 < one_point["sim_f_z_n"].median()
     assert one_point["sim_theta_rad"].median() == pytest.approx(0.0142, rel=0.05)
     assert result.metrics["r_f_x"] > 0.9
-    # The fillet rounds the chamfer's lower end: the simulated peak comes < 1 mm early.
-    assert 0.0 < result.metrics["alignment_shift_m"] < 0.001
+    # First contact is where Whitney's chamfer starts, to within a few µm (the hydroelastic
+    # "depth delay" is that small at 200 GPa).
+    assert abs(result.metrics["alignment_shift_m"]) < 2e-5
+    # The 1 mm fillet rounds the chamfer's lower end: the simulated peak comes < 1 mm early.
+    peak = compare(trace, scene_config, 0.001, config, "first_peak").metrics
+    assert 0.0 < peak["alignment_shift_m"] < 0.001

@@ -28,7 +28,7 @@ def main(argv: list[str] | None = None) -> int:
     for path in args.files:
         try:
             record = _provenance(path)
-        except Exception as error:  # any unreadable file: say which, go on with the rest
+        except Exception as error:  # noqa: BLE001 - any unreadable file: say which, go on
             first = str(error).splitlines()[0] if str(error) else type(error).__name__
             print(f"{path}: not a pih output with provenance ({first})", file=sys.stderr)
             status = 1

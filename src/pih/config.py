@@ -48,6 +48,13 @@ def _coerce(tp: Any, value: Any, key: str) -> Any:
     origin = get_origin(tp)
     if dataclasses.is_dataclass(tp):
         return _build(tp, value, key)
+    if origin is dict:
+        # Dotted-path overrides: the keys are checked where they are applied.
+        ok = isinstance(value, Mapping) and all(
+            isinstance(k, str) and isinstance(v, (int, float, str, bool)) for k, v in value.items()
+        )
+        require(ok, key, "a mapping of dotted config paths to numbers, strings or booleans", value)
+        return dict(value)
     if origin is Literal:
         require(value in get_args(tp), key, f"one of {list(get_args(tp))}", value)
         return value
@@ -129,6 +136,11 @@ def json_schema(tp: Any) -> dict[str, Any]:
         }
     if origin is Literal:
         return {"enum": list(get_args(tp))}
+    if origin is dict:
+        return {
+            "type": "object",
+            "additionalProperties": {"type": ["number", "string", "integer", "boolean"]},
+        }
     if origin is tuple:
         args = get_args(tp)
         if len(args) == 2 and args[1] is Ellipsis:

@@ -104,7 +104,9 @@ def override(config: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, A
         name = _plain(point.pop(VARIANT_KEY))
         variants = config.get("variants") or {}
         if name not in variants:
-            raise ConfigError(f"variant {name!r} is not defined under variants ({sorted(variants)})")
+            raise ConfigError(
+                f"variant {name!r} is not defined under variants ({sorted(variants)})"
+            )
         point = {**variants[name], **point}
     for path, value in point.items():
         node = out

@@ -138,6 +138,26 @@ def first_peak_depth(sim: pd.DataFrame, params: whitney.WhitneyParams) -> float:
     return float(window["depth_m"].iloc[int(np.argmax(window["f_z_n"].to_numpy()))])
 
 
+CONTACT_THRESHOLD_N = 1e-3
+"""F_z above which the simulated peg counts as touching the chamfer (chamfer_start alignment)."""
+ALIGNMENTS: tuple[str, ...] = ("chamfer_start", "first_peak")
+"""Depth alignments, primary first: the paper's (first simulated contact on Whitney's chamfer
+start −z_c) and ours before (the first simulated force peak on Whitney's peak at ℓ → 0⁻)."""
+
+
+def first_contact_depth(sim: pd.DataFrame, threshold_n: float = CONTACT_THRESHOLD_N) -> float:
+    """Unaligned depth where the simulated F_z first exceeds ``threshold_n``, interpolated
+    linearly between samples: the start of the chamfer crossing."""
+    f, d = sim["f_z_n"].to_numpy(), sim["depth_m"].to_numpy()
+    above = np.flatnonzero(f > threshold_n)
+    if above.size == 0:
+        raise ValueError("no contact force: the peg never touched the chamfer")
+    i = int(above[0])
+    if i == 0:
+        return float(d[0])
+    return float(d[i - 1] + (threshold_n - f[i - 1]) / (f[i] - f[i - 1]) * (d[i] - d[i - 1]))
+
+
 @dataclass(frozen=True)
 class Comparison:
     """One offset's Table 2/3 metrics, the aligned curves in the metrics window (sim and theory
@@ -149,16 +169,25 @@ class Comparison:
 
 
 def compare(
-    trace: Trace, scene: SceneConfig, offset_m: float, config: ValidationConfig
+    trace: Trace,
+    scene: SceneConfig,
+    offset_m: float,
+    config: ValidationConfig,
+    alignment: str = ALIGNMENTS[0],
 ) -> Comparison:
+    """Table 2/3 metrics of one trace under one depth alignment (:data:`ALIGNMENTS`)."""
     params = whitney_params(scene, offset_m)
     sim = to_whitney_frame(trace, scene.hole.x_m)
-    peak = first_peak_depth(sim, params)
-    # Whitney's chamfer peak is at l → 0⁻: put the simulated peak just before the entrance, not
-    # on l = 0 itself, where the theory has already jumped to its one-point value.
-    shift = -ENTRANCE_SIDE_M - peak
-    sim["depth_m"] = sim["depth_m"] + shift
     z_c = whitney.chamfer_height(params)
+    if alignment == "chamfer_start":
+        shift = -z_c - first_contact_depth(sim)
+    elif alignment == "first_peak":
+        # Whitney's chamfer peak is at l → 0⁻: put the simulated peak just before the entrance,
+        # not on l = 0 itself, where the theory has already jumped to its one-point value.
+        shift = -ENTRANCE_SIDE_M - first_peak_depth(sim, params)
+    else:
+        raise ValueError(f"alignment must be one of {ALIGNMENTS}, got {alignment!r}")
+    sim["depth_m"] = sim["depth_m"] + shift
     window = sim[(sim["depth_m"] >= -z_c) & (sim["depth_m"] <= config.final_depth_m)].reset_index(
         drop=True
     )
@@ -176,7 +205,14 @@ def compare(
     )
     reached = float(sim["depth_m"].max())
     peak_theory = whitney.state_at(params, -1e-9 * z_c)
-    peak_sim = sim.iloc[int(np.argmin(np.abs(sim["depth_m"].to_numpy())))]
+    # The simulated "initial" value: the largest F_z in the aligned chamfer (not a chatter spike
+    # after the entrance), else the sample nearest the entrance.
+    chamfer = sim[(sim["depth_m"] >= -z_c - 1e-4) & (sim["depth_m"] < 0.0)]
+    peak_sim = (
+        chamfer.iloc[int(np.argmax(chamfer["f_z_n"].to_numpy()))]
+        if len(chamfer)
+        else sim.iloc[int(np.argmin(np.abs(sim["depth_m"].to_numpy())))]
+    )
     metrics: dict[str, float | str] = {
         "offset_m": offset_m,
         "alignment_shift_m": shift,
@@ -248,11 +284,12 @@ def phase_markers(params: whitney.WhitneyParams) -> dict[str, float]:
 
 COMPARISON_COLUMNS: dict[str, tuple[str, str]] = {
     "contact_model": ("", "Drake contact model"),
+    "alignment": ("", "depth alignment: chamfer_start (the paper's) or first_peak"),
     "offset": ("", "lateral offset label, or 'pooled' for all offsets of the model"),
     "offset_m": ("m", "lateral offset eps0 of the spring base from the hole axis"),
     "trace_status": ("", "ok, or diverged (the metrics then cover the depth reached)"),
     "note": ("", "why a run stopped or could not be compared"),
-    "alignment_shift_m": ("m", "depth shift putting the simulated first force peak on Whitney's"),
+    "alignment_shift_m": ("m", "depth shift applied to the simulated curve by the alignment"),
     "reached_depth_m": ("m", "deepest aligned insertion depth reached"),
     "n_samples": ("1", "samples in the correlation window"),
     "r_f_x": ("1", "Pearson r of F_x, simulated vs theory (Table 3)"),
@@ -283,27 +320,38 @@ ALIGNED_COLUMNS: dict[str, tuple[str, str]] = {
 def comparison_table(
     traces: Mapping[tuple[str, float], Trace], scene: SceneConfig, config: ValidationConfig
 ) -> tuple[pd.DataFrame, dict[tuple[str, float], Comparison]]:
-    """Table 2/3 rows per (contact model, offset) and a pooled row per model. A trace that
-    cannot be compared (no chamfer contact) gets a row with its status and NaN metrics."""
+    """Table 2/3 rows per (contact model, alignment, offset) and a pooled row per model and
+    alignment; the comparisons (for figures) use the primary alignment. A trace that cannot be
+    compared (no chamfer contact) gets a row with its status and NaN metrics."""
     rows: list[dict] = []
     comparisons: dict[tuple[str, float], Comparison] = {}
     for model in dict.fromkeys(m for m, _ in traces):
-        aligned = []
-        for (trace_model, offset), trace in traces.items():
-            if trace_model != model:
-                continue
-            row = {"contact_model": model, "offset": f"{1e3 * offset:g} mm", "offset_m": offset}
-            try:
-                result = compare(trace, scene, offset, config)
-            except ValueError as error:
-                rows.append({**row, "trace_status": trace.status, "note": str(error)})
-                continue
-            comparisons[(model, offset)] = result
-            aligned.append(result.aligned)
-            rows.append({**row, **result.metrics, "note": trace.reason})
-        pooled = pooled_correlation(aligned) if aligned else {}
-        rows.append({"contact_model": model, "offset": "pooled", "note": "", **pooled})
+        for alignment in ALIGNMENTS:
+            aligned = []
+            for (trace_model, offset), trace in traces.items():
+                if trace_model != model:
+                    continue
+                row = {
+                    "contact_model": model,
+                    "alignment": alignment,
+                    "offset": f"{1e3 * offset:g} mm",
+                    "offset_m": offset,
+                }
+                try:
+                    result = compare(trace, scene, offset, config, alignment)
+                except ValueError as error:
+                    rows.append({**row, "trace_status": trace.status, "note": str(error)})
+                    continue
+                if alignment == ALIGNMENTS[0]:
+                    comparisons[(model, offset)] = result
+                aligned.append(result.aligned)
+                rows.append({**row, **result.metrics, "note": trace.reason})
+            pooled = pooled_correlation(aligned) if aligned else {}
+            rows.append(
+                {"contact_model": model, "alignment": alignment, "offset": "pooled", **pooled}
+            )
     table = pd.DataFrame(rows).reindex(columns=list(COMPARISON_COLUMNS))
+    table["note"] = table["note"].fillna("")
     return table, comparisons
 
 

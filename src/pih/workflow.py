@@ -19,7 +19,7 @@ from pih.config import ConfigError, from_mapping, json_schema
 from pih.planner import PlannerConfig
 from pih.scene import SceneConfig
 from pih.study import override
-from pih.validation import ValidationConfig
+from pih.validation import ValidationConfig, validation_scene_config
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,9 @@ class ValidationSection:
     offsets_m: tuple[float, ...] = (0.0005, 0.001, 0.0015, 0.002)
     contact_models: tuple[str, ...] = ("hydroelastic", "point")
     experiment: ValidationConfig = field(default_factory=ValidationConfig)
+    # Scene settings of the validation runs that differ from the planner's scene, as dotted
+    # paths under `scene` (e.g. "hole.fillet_radius_m"); docs/validation.md says why.
+    scene_overrides: dict[str, Any] = field(default_factory=dict)
 
     def validate(self, prefix: str = "") -> None:
         if not self.offsets_m or any(not (0 < o < 0.01) for o in self.offsets_m):
@@ -42,6 +45,19 @@ class ValidationSection:
                 f"{prefix}contact_models: {list(self.contact_models)!r}; expected a non-empty list of {list(allowed)}"
             )
         self.experiment.validate(prefix + "experiment.")
+
+    def scene(self, scene: Mapping[str, Any], contact_model: str) -> SceneConfig:
+        """The validation runs' scene: the study's scene with ``scene_overrides`` and the
+        contact model applied, and a hole deep enough for the whole insertion."""
+        point = {f"scene.{path}": value for path, value in self.scene_overrides.items()}
+        try:
+            data = override({"scene": scene}, point)
+            base = from_mapping(SceneConfig, data["scene"], "scene")
+            return validation_scene_config(
+                base.replace(solver__contact_model=contact_model), self.experiment
+            )
+        except ConfigError as error:
+            raise ConfigError(f"validation.scene_overrides: {error}") from None
 
 
 def config_schema() -> dict[str, Any]:
@@ -107,7 +123,9 @@ def use_own_sweep(config: dict[str, Any], configfiles: list[str]) -> None:
 
 def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> None:
     """Validate every section, every variant and every sweep point strictly, before any job."""
-    from_mapping(ValidationSection, config["validation"], "validation")
+    section = from_mapping(ValidationSection, config["validation"], "validation")
+    for model in section.contact_models:
+        section.scene(config["scene"], model)
     for name in config.get("variants") or {}:
         data = override(config, {"variant": name})
         from_mapping(SceneConfig, data["scene"], f"variants.{name}: scene")

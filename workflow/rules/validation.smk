@@ -32,7 +32,7 @@ rule validation_run:
         runtime=15,
     params:
         scene=config["scene"],
-        experiment=config["validation"]["experiment"],
+        validation=config["validation"],
         library=LIBRARY_HASH,
     script:
         "../scripts/validation_run.py"

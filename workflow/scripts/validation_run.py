@@ -2,26 +2,21 @@
 
 from pih.config import from_mapping, to_mapping
 from pih.recordings import record_insertion
-from pih.scene import PegInHoleScene, SceneConfig
+from pih.scene import PegInHoleScene
 from pih.traces import write_trace
-from pih.validation import ValidationConfig, run_insertion, validation_scene_config
-from pih.workflow import job_provenance, logged
+from pih.validation import run_insertion
+from pih.workflow import ValidationSection, job_provenance, logged
 
 with logged(snakemake.log[0]):
-    experiment = from_mapping(
-        ValidationConfig, snakemake.params.experiment, "validation.experiment"
-    )
-    base = from_mapping(SceneConfig, snakemake.params.scene, "scene")
-    scene = validation_scene_config(
-        base.replace(solver__contact_model=snakemake.wildcards.model), experiment
-    )
+    section = from_mapping(ValidationSection, snakemake.params.validation, "validation")
+    scene = section.scene(snakemake.params.scene, snakemake.wildcards.model)
     offset = float(snakemake.wildcards.offset)
-    trace = run_insertion(PegInHoleScene(scene), offset, experiment)
+    trace = run_insertion(PegInHoleScene(scene), offset, section.experiment)
     record = job_provenance(
         snakemake,
         "validation_run",
         point={"contact_model": snakemake.wildcards.model, "offset_m": offset},
-        config={"scene": to_mapping(scene), "experiment": snakemake.params.experiment},
+        config={"scene": to_mapping(scene), "validation": snakemake.params.validation},
         simulator=scene.simulator_settings(),
     )
     write_trace(trace, snakemake.output.trace, record)
