@@ -1,4 +1,9 @@
-"""Command line: ``python -m pih provenance FILE...`` (or the ``pih`` console script)."""
+"""Command line (``python -m pih`` or the ``pih`` console script):
+
+- ``pih show FILE``: a Parquet output's columns with units, row count and provenance summary;
+- ``pih provenance FILE... [--key K]``: the full provenance record (Parquet or recording);
+- ``pih schema``: the JSON schema of the study's config.
+"""
 
 from __future__ import annotations
 
@@ -17,7 +22,11 @@ def main(argv: list[str] | None = None) -> int:
     show.add_argument("files", nargs="+", type=Path, help="Parquet outputs (or .rrd recordings)")
     show.add_argument("--key", help="print only this top-level key")
     commands.add_parser("schema", help="print the JSON schema of config/config.yaml")
+    look = commands.add_parser("show", help="columns, units, rows and provenance of a Parquet file")
+    look.add_argument("file", type=Path)
     args = parser.parse_args(argv)
+    if args.command == "show":
+        return _show(args.file)
     if args.command == "schema":
         from pih.workflow import config_schema
 
@@ -41,6 +50,33 @@ def main(argv: list[str] | None = None) -> int:
         print(f"# {path}")
         print(json.dumps(value, indent=2, sort_keys=True))
     return status
+
+
+def _show(path: Path) -> int:
+    import pyarrow.parquet as pq
+
+    try:
+        meta = pq.ParquetFile(path).metadata
+        schema = pq.read_schema(path)
+        record = read_provenance(path)
+    except Exception as error:  # noqa: BLE001 - any unreadable file: one clear line
+        first = str(error).splitlines()[0] if str(error) else type(error).__name__
+        print(f"{path}: not a pih Parquet output ({first})", file=sys.stderr)
+        return 1
+    print(f"{path}: {meta.num_rows} rows, {len(schema)} columns")
+    width = max(len(field.name) for field in schema)
+    for field in schema:
+        info = {k.decode(): v.decode() for k, v in (field.metadata or {}).items()}
+        unit = info.get("unit") or "-"
+        print(f"  {field.name:<{width}}  [{unit}]  {info.get('description', '')}")
+    seeds = ", ".join(f"{k}={v}" for k, v in sorted(record.get("seeds", {}).items()))
+    print(f"step {record['step']}; run id {record['run_id']}")
+    print(f"seeds: {seeds or '-'}; config sha256 {record['config_sha256'][:12]}")
+    print(
+        f"code {record['code_version']}, library {record['library_sha256'][:12]}, "
+        f"drake {record['packages']['drake']}, created {record['created_utc']}"
+    )
+    return 0
 
 
 def _provenance(path: Path) -> dict:

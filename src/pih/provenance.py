@@ -1,4 +1,4 @@
-"""Provenance records attached to every output (conventions.md, "Provenance in each Parquet file").
+"""Provenance records attached to every output (docs/workflow.md, "Outputs and provenance").
 
 A record says which step made a file, from which configuration, inputs, seeds and code, with which
 simulator settings and library versions. Volatile fields (time, host) are listed in

@@ -58,7 +58,7 @@ from pih.frames import offset_along_axis, spring_energy, spring_force
 
 @dataclass(frozen=True)
 class PegConfig:
-    # d of whitney.md §9.2 (the paper's Whitney parameters).
+    # d of the paper's Whitney parameters (docs/whitney.md).
     diameter_m: float = 12.672e-3
     # Whitney's L_g = 45 mm: the spring point P1 (peg top centre) is 45 mm above the tip P2.
     length_m: float = 0.045
@@ -86,18 +86,18 @@ class PegConfig:
 
 @dataclass(frozen=True)
 class HoleConfig:
-    # D of whitney.md §9.2: 0.033 mm diametral clearance with the default peg.
+    # D of the paper's Whitney parameters: 0.033 mm diametral clearance with the default peg.
     diameter_m: float = 12.705e-3
     # Top surface to bottom. 10 mm puts the entrance at y = 0 with the hole frame H at
     # y_H = −0.01 m (paper Table 4).
     depth_m: float = 0.010
-    # Whitney's α (whitney.md §9.2).
+    # Whitney's α (docs/whitney.md).
     chamfer_angle_deg: float = 45.0
     # Horizontal chamfer width W. Not given by the paper; 2.5 mm captures a 2 mm offset
     # (ε0' ≈ 1.98 mm ≤ W) even after the fillet takes ≈0.4 mm off the chamfer's lower end.
     chamfer_width_m: float = 2.5e-3
     # Round the chamfer–wall edge: a sharp rigid edge gives the chamfer normal while the peg is
-    # already in one-point contact on the wall (drake-notes: Fz ≈ 4|Fx|, unphysical).
+    # already in one-point contact on the wall (Fz ≈ 4|Fx|, unphysical; docs/simulation.md).
     fillet_radius_m: float = 1.0e-3
     fillet_facets: int = 9
     # Width of each wall block beyond the chamfer; large enough that a peg landing beside the
@@ -163,7 +163,7 @@ class MaterialConfig:
     hunt_crossley_dissipation_s_per_m: float = 30.0
     # Paper Table 4 (steel on steel).
     friction: float = 0.6
-    # Hydroelastic margin. Not in the paper; 200 GPa needs one (drake-notes), and it acts like a
+    # Hydroelastic margin. Not in the paper; 200 GPa needs one (docs/simulation.md); it acts like a
     # thinner clearance (16.5 µm per side). Measured at the 1 mm validation offset: 10 µm moves
     # the start of two-point contact from 2.9 to 3.3 mm (theory 2.3 mm) and doubles the final
     # angle error; 1–2 µm lose solver convergence at 1.5–2 mm offsets; 5 µm is the compromise.
@@ -187,12 +187,11 @@ DiscreteApproximation = Literal["tamsi", "sap", "similar", "lagged"]
 
 @dataclass(frozen=True)
 class SolverConfig:
-    # drake-notes: 2 ms with TAMSI gave the same final depth as 0.5 and 1 ms (to 0.01 mm) at
+    # 2 ms with TAMSI gave the same final depth as 0.5 and 1 ms (to 0.01 mm) at
     # 200 GPa, 2.5–4× faster.
     time_step_s: float = 2.0e-3
-    # drake-notes: TAMSI is the only approximation that was clean at 200 GPa in the planning
-    # rollout (sap blew up, lagged/similar spiked in two-point contact). Drake 1.51 prints a
-    # deprecation warning for it.
+    # TAMSI is the only approximation that ran the planner's rollouts without contact-force
+    # blow-ups (measured in docs/simulation.md), though Drake 1.51 deprecates it.
     discrete_contact_approximation: DiscreteApproximation = "tamsi"
     contact_model: ContactModel = "hydroelastic"
     # A rollout whose contact force exceeds this is "diverged" (the paper's forces are ≤ 25 N).
@@ -238,8 +237,8 @@ class SpringConfig:
     # Paper Table 4: k_x = k_y = 1000 N/m, k_θ = 1 N·m/rad.
     stiffness: tuple[float, float, float] = (1000.0, 1000.0, 1.0)
     # Damping as a fraction of each DoF's critical damping 2·sqrt(k·m). Not in the paper; the
-    # spring is explicit (evaluated at the start of each step), and drake-notes found full
-    # critical damping unstable above 0.83 ms while 0.3 was stable at 1–2 ms.
+    # spring is explicit (evaluated at the start of each step); full critical damping was
+    # unstable above 0.83 ms while 0.3 was stable at 1–2 ms (docs/simulation.md).
     damping_ratio: float = 0.3
 
     def validate(self, prefix: str = "") -> None:

@@ -2,7 +2,7 @@
 
 The experiment: the robot moves straight down at a slow constant speed with the spring base
 laterally fixed at an offset ε0 from the hole axis (θ0 = 0), as in Whitney's quasi-static model.
-The comparison maps the simulated trace to Whitney's conventions (whitney.md §2: +u toward the
+The comparison maps the simulated trace to Whitney's conventions (docs/whitney.md: +u toward the
 error side, F_x < 0, F_z > 0 downward push, θ > 0 leaning toward +u), aligns it in depth on the
 first force peak as the paper does (and reports that shift, the hydroelastic "depth delay"), and
 computes Pearson r of F_x and F_z over the aligned insertion (Table 3) and relative errors of the

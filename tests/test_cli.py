@@ -1,0 +1,47 @@
+"""The command line: `pih show` and `pih provenance`, on good and bad files."""
+
+import pandas as pd
+import pytest
+
+from pih.__main__ import main
+from pih.provenance import record
+from pih.traces import write_table
+
+
+@pytest.fixture
+def table(tmp_path):
+    path = tmp_path / "t.parquet"
+    frame = pd.DataFrame({"force_n": [1.0, 2.0], "label": ["a", "b"]})
+    columns = {"force_n": ("N", "a force"), "label": ("", "a label")}
+    write_table(frame, path, record("test", seeds={"noise": 7}), columns)
+    return path
+
+
+def test_show_prints_columns_with_units_rows_and_provenance(table, capsys):
+    assert main(["show", str(table)]) == 0
+    out = capsys.readouterr().out
+    assert "2 rows, 2 columns" in out
+    assert "force_n  [N]  a force" in out
+    assert "seeds: noise=7" in out and "run id test" in out
+
+
+@pytest.mark.parametrize("content", [b"", b"not parquet at all", b"PAR1garbagePAR1"])
+def test_bad_files_give_one_line_and_a_failing_status(tmp_path, capsys, content, table):
+    bad = tmp_path / "bad.rrd"
+    bad.write_bytes(content)
+    other = tmp_path / "bad.parquet"
+    other.write_bytes(content)
+    assert main(["show", str(other)]) == 1
+    assert main(["provenance", str(bad), str(other), str(table)]) == 1
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err
+    assert len(captured.err.strip().splitlines()) == 3  # show + two bad provenance files
+    assert f"# {table}" in captured.out  # the good file after the bad ones is still printed
+
+
+def test_unknown_key_is_an_error_naming_the_keys(table, capsys):
+    assert main(["provenance", str(table), "--key", "no_such_key"]) == 1
+    err = capsys.readouterr().err
+    assert "no key 'no_such_key'" in err and "seeds" in err
+    assert main(["provenance", str(table), "--key", "seeds"]) == 0
+    assert '"noise": 7' in capsys.readouterr().out
