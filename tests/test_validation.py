@@ -8,6 +8,7 @@ from pih.scene import SceneConfig, Trace
 from pih.validation import (
     ValidationConfig,
     compare,
+    comparison_table,
     pooled_correlation,
     to_whitney_frame,
     whitney_params,
@@ -140,3 +141,16 @@ def test_real_insertion_matches_whitney_in_shape():
     # The 1 mm fillet rounds the chamfer's lower end: the simulated peak comes < 1 mm early.
     peak = compare(trace, scene_config, 0.001, config, "first_peak").metrics
     assert 0.0 < peak["alignment_shift_m"] < 0.001
+
+
+def test_forces_orders_of_magnitude_off_the_theory_are_flagged_not_ok():
+    trace = synthetic_trace(0.001, 0.0)
+    assert compare(trace, SCENE, 0.001, CONFIG).metrics["trace_status"] == "ok"
+    trace.contact_force[:] *= 1e-2
+    assert compare(trace, SCENE, 0.001, CONFIG).metrics["trace_status"] == "implausible"
+    trace.contact_force[:] *= 1e-4  # what a 1 Pa modulus gave: µN against newtons
+    table, _ = comparison_table({("hydroelastic", 0.001): trace}, SCENE, CONFIG)
+    rows = table[table["offset"] != "pooled"]
+    assert set(rows["trace_status"]) == {"implausible"}
+    primary = rows[rows["alignment"] == "chamfer_start"]
+    assert primary["note"].str.contains("never touched").all()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -12,6 +13,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from pih.provenance import canonical_json, stable
 from pih.recordings import hole_outline
 from pih.scene import HoleConfig
 from pih.traces import write_with
@@ -27,11 +29,37 @@ MODEL_STYLE = {
 }
 
 
-def save(fig: plt.Figure, png: str | Path, pdf: str | Path | None = None) -> None:
-    """Atomically write a figure as PNG (and PDF), then close it."""
+def save(
+    fig: plt.Figure,
+    png: str | Path,
+    pdf: str | Path | None = None,
+    provenance: Mapping[str, Any] | None = None,
+) -> None:
+    """Atomically write a figure as PNG (and PDF), then close it. The PNG carries the stable
+    provenance record (no time or host) as a ``pih.provenance`` text chunk, the PDF its run id
+    and hashes; neither carries a creation date, so reruns write identical files."""
+    record = stable(provenance or {})
+    metadata = {
+        ".png": {"Software": "pih", "pih.provenance": canonical_json(record)},
+        ".pdf": {
+            "Creator": "pih",
+            "Subject": str(record.get("run_id", "")),
+            "Keywords": " ".join(
+                f"{key}={record[key]}"
+                for key in ("config_sha256", "library_sha256")
+                if key in record
+            ),
+            "CreationDate": None,
+        },
+    }
     for path in (png, pdf):
         if path is not None:
-            write_with(path, lambda target: fig.savefig(target, dpi=150, bbox_inches="tight"))
+            suffix = Path(path).suffix
+
+            def write(target: Path, suffix: str = suffix) -> None:
+                fig.savefig(target, dpi=150, bbox_inches="tight", metadata=metadata[suffix])
+
+            write_with(path, write)
     plt.close(fig)
 
 

@@ -38,11 +38,17 @@ with logged(snakemake.log[0]):
     write_text(snakemake.output.ablation_markdown, markdown_table(ablation))
     overall = bands[bands["dimension"] == "all"]
     plots.save(
-        plots.cost_band_figure(overall), snakemake.output.fig_bands, snakemake.output.fig_bands_pdf
+        plots.cost_band_figure(overall),
+        snakemake.output.fig_bands,
+        snakemake.output.fig_bands_pdf,
+        provenance=record,
     )
-    plots.save(plots.deploy_success_figure(ablation), snakemake.output.fig_ablation)
+    plots.save(
+        plots.deploy_success_figure(ablation), snakemake.output.fig_ablation, provenance=record
+    )
     scene = from_mapping(SceneConfig, snakemake.params.scene, "scene")
     for source, png in zip(snakemake.input.best_paths, snakemake.output.fig_paths):
         title = Path(source).parent.name
-        plots.save(plots.best_paths_figure(pd.read_parquet(source), scene.hole, title), png)
+        figure = plots.best_paths_figure(pd.read_parquet(source), scene.hole, title)
+        plots.save(figure, png, provenance=record)
     print(success.to_string())

@@ -46,10 +46,12 @@ with logged(snakemake.log[0]):
         ("f_z_n", snakemake.output.fig_fz),
         ("theta_rad", snakemake.output.fig_theta),
     ):
-        plots.save(plots.validation_curves(simulated, theory, markers, quantity), png, next(pdfs))
+        figure = plots.validation_curves(simulated, theory, markers, quantity)
+        plots.save(figure, png, next(pdfs), provenance=record)
     plots.save(
         plots.force_scatter({k: c.aligned for k, c in comparisons.items()}),
         snakemake.output.fig_scatter,
         next(pdfs),
+        provenance=record,
     )
     print(table.to_string())
