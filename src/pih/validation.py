@@ -307,8 +307,7 @@ COMPARISON_COLUMNS: dict[str, tuple[str, str]] = {
     "offset_m": ("m", "lateral offset eps0 of the spring base from the hole axis"),
     "trace_status": (
         "",
-        "ok; diverged (the metrics then cover the depth reached); or implausible (F_z off the "
-        "theory by more than 10x either way: a broken setting, not a model error)",
+        "ok; diverged (metrics cover the depth reached); implausible (F_z off the theory by > 10x)",
     ),
     "note": ("", "why a run stopped or could not be compared"),
     "alignment_shift_m": ("m", "depth shift applied to the simulated curve by the alignment"),
