@@ -102,6 +102,17 @@ def test_new_sweep_dimension_is_a_config_edit(tmp_path):
 
 
 @pytest.mark.slow
+def test_repeated_yaml_key_stops_naming_file_and_line(tmp_path):
+    work = copy_workflow(tmp_path)
+    text = (work / "config" / "smoke.yaml").read_text()
+    (work / "dup.yaml").write_text(text + "planner:\n  iterations: 1\n")
+    result = snakemake(work, "-n", "--configfile", "dup.yaml", check=False)
+    assert result.returncode != 0
+    assert "dup.yaml, line" in result.stderr + result.stdout
+    assert "key 'planner' appears twice" in result.stderr + result.stdout
+
+
+@pytest.mark.slow
 def test_own_config_file_defines_its_own_sweep(tmp_path):
     work = copy_workflow(tmp_path)
     own = {"sweep": {"planner.method": ["one_level", "bilevel"]}, "figure_point": {}}

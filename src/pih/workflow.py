@@ -107,18 +107,39 @@ OWN_SECTIONS = ("sweep", "variants", "figure_point")
 """Sections a config file given with --configfile replaces whole instead of merging."""
 
 
-def use_own_sweep(config: dict[str, Any], configfiles: list[str]) -> None:
-    """Snakemake merges a --configfile onto config/config.yaml key by key, so a user's sweep
-    would inherit every default level. The study's sections that define *which runs* exist are
-    instead taken whole from the last command-line file that has them."""
-    import yaml
-
-    for path in configfiles:
-        with open(path) as handle:
-            data = yaml.safe_load(handle) or {}
+def read_config_files(
+    config: dict[str, Any], default_files: list[str], command_line_files: list[str]
+) -> None:
+    """Check every config file for repeated keys (YAML lets a later key silently replace a whole
+    section) and take the sections that define *which runs* exist (:data:`OWN_SECTIONS`) whole
+    from the last command-line file that has them: Snakemake would merge a user's sweep onto the
+    default's levels key by key."""
+    for path in default_files:
+        load_yaml_strictly(path)
+    for path in command_line_files:
+        data = load_yaml_strictly(path) or {}
         for section in OWN_SECTIONS:
             if section in data:
                 config[section] = data[section]
+
+
+def load_yaml_strictly(path: str) -> Any:
+    """YAML that rejects a repeated key, naming the file and line."""
+    import yaml
+
+    class Loader(yaml.SafeLoader):
+        def construct_mapping(self, node, deep=False):  # type: ignore[override]
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                key = self.construct_object(key_node, deep=deep)
+                if key in seen:
+                    line = key_node.start_mark.line + 1
+                    raise ConfigError(f"{path}, line {line}: key {key!r} appears twice")
+                seen.add(key)
+            return super().construct_mapping(node, deep=deep)
+
+    with open(path) as handle:
+        return yaml.load(handle, Loader=Loader)
 
 
 def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> None:

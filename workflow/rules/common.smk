@@ -3,10 +3,10 @@ from snakemake.utils import Paramspace, validate
 
 from pih.provenance import library_hash
 from pih.study import sweep_points
-from pih.workflow import check_study, use_own_sweep
+from pih.workflow import check_study, read_config_files
 
-# A --configfile defines its own sweep (not merged onto the default's levels).
-use_own_sweep(config, workflow.overwrite_configfiles or [])
+# No repeated YAML keys; a --configfile defines its own sweep (not merged onto the default's).
+read_config_files(config, workflow.configfiles, workflow.overwrite_configfiles or [])
 # Stop before any job runs if the config is malformed (schema) or out of range (library).
 validate(config, "../schemas/config.schema.json")
 
