@@ -1,6 +1,6 @@
-"""Tests for pih.whitney against the formula sheet /work/shared/reference/whitney.md.
+"""Tests for pih.whitney against the project's formula sheet docs/whitney.md (§ numbers are its).
 
-The sheet's tables are in mm, N and N*mm; the module is SI, so depths are converted with MM.
+Its tables are in mm, N and N*mm; the module is SI, so depths are converted with MM.
 Printed table values are checked to their printed precision (half a unit of the last digit).
 """
 
@@ -40,9 +40,10 @@ def assert_printed(value: float, printed: str, ulps: float = 0.5) -> None:
 
 
 def paper(offset_mm: float) -> WhitneyParams:
-    """§9.2 parameters. The sheet's reference implementation used the stored clearance ratio
-    c = 0.0026 exactly, i.e. d = D (1 - c) = 12.67197 mm rather than 12.672 mm; that difference
-    moves l2, l* and F_z* in their 4th digit, so the table is reproduced with d = D (1 - c)."""
+    """The paper's parameters (docs/whitney.md §2). Its Whitney curves use the stored clearance
+    ratio c = 0.0026 exactly, i.e. d = D (1 - c) = 12.67197 mm rather than 12.672 mm; that
+    difference moves l2, l* and F_z* in their 4th digit, so the table (§8.1) is reproduced with
+    d = D (1 - c)."""
     hole = 12.705 * MM
     return WhitneyParams(peg_diameter_m=hole * (1 - 0.0026), offset_m=offset_mm * MM)
 
@@ -57,7 +58,7 @@ def phase_runs(phases) -> list[str]:
 
 
 # ---------------------------------------------------------------------------------------------
-# §9.2 table, every cell
+# docs/whitney.md §8.1 table, every cell (TABLE_9_2: it was §9.2 of the original reference sheet)
 # ---------------------------------------------------------------------------------------------
 # eps0, z_c, chamfer peak (F_z, F_x, theta), one-point at l=0 (F_z, F_x, theta), l2, theta2,
 # l*, F_z*, F_x(l*), l2', l_line, line contact (F_z, F_x)
@@ -110,9 +111,10 @@ def test_table_9_2(row):
 
 
 def test_chamfer_to_one_point_discontinuity_default_params():
-    """§4.1: at l = 0 the contact jumps from chamfer to hole edge (eps0 = 1 mm: 2.087 -> 0.207 N,
-    theta 0.0103 -> 0.0142), with the module's default parameters. The sheet's "2.087" is the
-    table's 2.0875 cut short; with d = 12.672 mm the peak is 2.08753 N, so check 2.0875."""
+    """docs/whitney.md §4.2, §8.1: at l = 0 the contact jumps from chamfer to hole edge
+    (eps0 = 1 mm: 2.0875 -> 0.207 N, theta 0.0103 -> 0.0142), with the module's default parameters
+    (d = 12.672 mm). The original reference sheet printed "2.087", the table's 2.0875 cut short;
+    with d = 12.672 mm the peak is 2.08753 N, so check 2.0875."""
     p = WhitneyParams()
     before, after = state_at(p, CHAMFER_PEAK), state_at(p, 0.0)
     assert (before.phase, after.phase) == ("chamfer", "one_point")
@@ -123,7 +125,7 @@ def test_chamfer_to_one_point_discontinuity_default_params():
 
 
 # ---------------------------------------------------------------------------------------------
-# §9.1 Whitney's experiment, §9.3 SI set
+# docs/whitney.md §8.2 Whitney's experiment, §8.3 looser SI fit
 # ---------------------------------------------------------------------------------------------
 FIG_10_24 = WhitneyParams(
     k_x_n_per_m=7000.0,  # 7 N/mm
@@ -148,7 +150,7 @@ def test_fig_10_24():
     assert_printed(state_at(p, ls).f_z_n, "1.03")
     one_point = curve(p, np.linspace(0.0, 10 * MM, 11))
     assert (one_point.phase == "one_point").all()
-    assert one_point.f_z_n.between(0.45, 0.495).all()  # sheet: 0.45-0.49 N
+    assert one_point.f_z_n.between(0.45, 0.495).all()  # docs/whitney.md §8.2
 
 
 def test_fig_10_25_no_two_point_contact():
@@ -195,7 +197,7 @@ def test_si_set_one_mm():
 @pytest.mark.parametrize(
     ("offset_mm", "l2", "l2_ulps", "fz_star", "l_star", "wedging"),
     [
-        # the sheet prints 9.6 for l2 = 9.5496 mm (double rounding via 9.55): allow 0.6 ulp
+        # docs/whitney.md §8.3 prints 9.6 for l2 = 9.5496 mm (rounded via 9.55): allow 0.6 ulp
         (1.5, "9.6", 0.6, "1.66", "16.2", False),
         (2.0, "7.06", 0.5, "3.12", "12.5", True),
     ],
@@ -245,7 +247,7 @@ def test_onset_angle_is_geometric_two_point_angle():
 
 
 def test_sheet_forms_of_each_phase():
-    """Each phase's loads equal the sheet's phase-specific forms (§4.1, 4.2, 4.4, 4.5)."""
+    """Each phase's loads equal the phase-specific forms of docs/whitney.md §4.2, 4.3, 4.4, 4.5."""
     p = dataclasses.replace(paper(1.0), theta0_rad=0.002)
     k_x, k_t, l_g, th0 = p.k_x_n_per_m, p.k_theta_nm_per_rad, p.compliance_length_m, p.theta0_rad
     mu, r, c_d = p.friction, p.peg_radius_m, p.diametral_clearance_m
@@ -282,7 +284,7 @@ def test_sheet_forms_of_each_phase():
 
 
 def test_two_point_contact_forces_nonnegative_and_f2_vanishes_at_ends():
-    """f1 = (M + mu r F_x)/l >= 0, f2 = f1 + F_x >= 0, with f2 = 0 at l2 and l2' (§4.3)."""
+    """f1 = (M + mu r F_x)/l >= 0, f2 = f1 + F_x >= 0, with f2 = 0 at l2 and l2' (§4.4, §5)."""
     p = paper(1.0)
     lo, hi = two_point_range(p)
     df = curve(p, np.linspace(lo, hi, 200))
@@ -308,7 +310,7 @@ def test_peak_force_depth_none_without_friction():
 
 
 # ---------------------------------------------------------------------------------------------
-# §5 wedging, §6 jamming
+# docs/whitney.md §6.1 wedging, §6.2 jamming
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize(
     ("offset_mm", "l2", "theta2", "design_tilt"),
@@ -457,7 +459,7 @@ def test_curve_matches_state_at_and_respects_max_depth():
 
 
 # ---------------------------------------------------------------------------------------------
-# §4.6: tip on the wall, mirror two-point contact
+# docs/whitney.md §4.6: tip on the wall, mirror two-point contact
 # ---------------------------------------------------------------------------------------------
 def test_tip_on_wall_and_mirror_two_point():
     p = WhitneyParams(compliance_length_m=2 * MM, offset_m=1 * MM)  # L_g < mu r = 3.8 mm

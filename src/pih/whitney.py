@@ -1,12 +1,12 @@
 """Whitney's planar quasi-static peg-in-hole theory: the analytical benchmark.
 
-Implements the formula sheet ``/work/shared/reference/whitney.md`` (equation numbers (10-xx) are
-Whitney's book chapter 10, (W-xx) his 1982 paper; § numbers are the sheet's). Conventions are
-Whitney's (sheet §2): ``u`` points toward the side of the initial lateral error ``eps0 > 0``;
-``theta > 0`` when the peg top leans toward +u; ``F_z > 0`` is the downward insertion force the
-support applies; ``F_x = -K_x (U0 - U) < 0`` during insertion; ``M`` is the support moment about the
-peg tip in the +theta sense. Depth ``l`` is the tip depth below the hole entrance (bottom of the
-chamfer); the chamfer is crossed for ``-z_c <= l < 0``.
+Implements the project's formula sheet ``docs/whitney.md`` (equation numbers (10-xx) are
+Whitney's book chapter 10, (W-xx) his 1982 paper; § numbers are those of docs/whitney.md).
+Conventions are Whitney's (docs/whitney.md §1): ``u`` points toward the side of the initial
+lateral error ``eps0 > 0``; ``theta > 0`` when the peg top leans toward +u; ``F_z > 0`` is the
+downward insertion force the support applies; ``F_x = -K_x (U0 - U) < 0`` during insertion; ``M``
+is the support moment about the peg tip in the +theta sense. Depth ``l`` is the tip depth below
+the hole entrance (bottom of the chamfer); the chamfer is crossed for ``-z_c <= l < 0``.
 
 All quantities are SI: metres, newtons, N*m, N*m/rad, radians.
 
@@ -86,7 +86,7 @@ class WhitneyInvalidError(ValueError):
 
 @dataclass(frozen=True)
 class WhitneyParams:
-    """Support, geometry and friction parameters (SI); defaults are the paper's set (§9.2)."""
+    """Support, geometry and friction parameters (SI); defaults: docs/whitney.md §2."""
 
     k_x_n_per_m: float = 1000.0
     k_theta_nm_per_rad: float = 1.0
@@ -103,7 +103,7 @@ class WhitneyParams:
     offset_m: float = 1.0e-3
     """eps0 > 0: initial lateral error of the peg tip centre."""
 
-    # --- geometry (§2, §3) ---------------------------------------------------------------------
+    # --- geometry (docs/whitney.md §1, §3) -----------------------------------------------------
     @property
     def clearance_ratio(self) -> float:
         """c = (D - d)/D (10-3)."""
@@ -141,7 +141,7 @@ class WhitneyParams:
 
     @property
     def z_c(self) -> float:
-        """z_c = eps0' tan(alpha) (§4.1): vertical extent of the chamfer crossing [m]."""
+        """z_c = eps0' tan(alpha) (§4.2): vertical extent of the chamfer crossing [m]."""
         return self.eps0_prime_m * math.tan(self.chamfer_angle_rad)
 
     @property
@@ -159,7 +159,7 @@ class WhitneyParams:
         """theta0 + S eps0 (10-7): tilt the check (10-9) compares with c/mu."""
         return self.theta0_rad + self.S * self.offset_m
 
-    # --- Whitney's auxiliaries (§2, §7); capitalised names are his symbols ----------------------
+    # --- Whitney's auxiliaries (docs/whitney.md §1); capitalised names are his symbols -----------
     @property
     def A(self) -> float:
         """A = cos(alpha) + mu sin(alpha) (10-18)."""
@@ -207,7 +207,7 @@ class WhitneyParams:
 
     # --- validity ------------------------------------------------------------------------------
     def validate(self) -> None:
-        """Raise WhitneyInvalidError where the theory (sheet §3, §4) does not apply."""
+        """Raise WhitneyInvalidError where the theory (docs/whitney.md §3, §4) does not apply."""
         for name in (
             "k_x_n_per_m",
             "k_theta_nm_per_rad",
@@ -382,7 +382,7 @@ _PHASE_FORMULAS: dict[str, Callable[[WhitneyParams, np.ndarray], _PhaseValues]] 
 # Phase boundaries
 # ------------------------------------------------------------------------------------------------
 def _line_depth(p: WhitneyParams) -> float:
-    """l_line = L_g - mu r + K_theta theta0 / (K_x (eps0' + L_g theta0)) (§4.5); zero of theta(l)."""
+    """l_line = L_g - mu r + K_theta theta0 / (K_x (eps0' + L_g theta0)) (§5); zero of theta(l)."""
     return (
         p.compliance_length_m
         - p.friction * p.peg_radius_m
@@ -415,13 +415,13 @@ def _phase_plan(p: WhitneyParams) -> list[tuple[str, float]]:
 
 
 def chamfer_height(p: WhitneyParams) -> float:
-    """z_c = eps0' tan(alpha) (§4.1) [m]; the chamfer is crossed for -z_c <= l < 0."""
+    """z_c = eps0' tan(alpha) (§4.2) [m]; the chamfer is crossed for -z_c <= l < 0."""
     p.validate()
     return p.z_c
 
 
 def two_point_range(p: WhitneyParams) -> tuple[float, float] | None:
-    """(l2, l2') [m]: roots of a l^2 - b l + g = 0 (W-21, W-22) with mu r (§4.3).
+    """(l2, l2') [m]: roots of a l^2 - b l + g = 0 (W-21, W-22) with mu r (docs/whitney.md §5).
 
     None if b^2 < 4ag, or in the tip-on-wall case of §4.6 (then only a mirror two-point
     contact can occur, see ``phase_boundaries``).
@@ -455,7 +455,7 @@ def onset_angle(p: WhitneyParams) -> float | None:
 
 
 def peak_force_depth(p: WhitneyParams) -> float | None:
-    """l* [m] where the two-point F_z (10-45) peaks: the sheet's derived form of (W-82) (§4.4),
+    """l* [m] where the two-point F_z (10-45) peaks: derived form of (W-82), docs/whitney.md §5,
 
     l* = 2 cD (2 Dk + mu d G) / (2 Dk theta0 + F (2 - mu d/L_g) + G (mu d theta0 - cD)).
 
@@ -479,7 +479,7 @@ def peak_force_depth(p: WhitneyParams) -> float | None:
 
 
 def line_contact_depth(p: WhitneyParams) -> float:
-    """l_line [m] (§4.5) where the one-point theta returns to 0 and line contact starts.
+    """l_line [m] (§4.5, §5) where the one-point theta returns to 0 and line contact starts.
 
     ``math.inf`` in the tip-on-wall case of §4.6, where line contact is never reached.
     """
@@ -488,7 +488,7 @@ def line_contact_depth(p: WhitneyParams) -> float:
 
 
 def wedging_possible(p: WhitneyParams) -> bool:
-    """True if two-point contact (regular or mirror) starts at l < mu d (§5, (10-5))."""
+    """True if two-point contact (regular or mirror) starts at l < mu d (§6.1, (10-5))."""
     bounds = phase_boundaries(p)
     start = bounds.get("two_point_start", bounds.get("two_point_mirror_start"))
     return start is not None and start < p.friction * p.peg_diameter_m
@@ -502,12 +502,12 @@ def phase_boundaries(p: WhitneyParams) -> dict[str, float]:
 
 
 def jamming_diagram(depth_m: float, friction: float, peg_diameter_m: float) -> dict:
-    """Jamming parallelogram (10-41), sheet §6, in X = F_x/F_z, Y = M/(r F_z).
+    """Jamming parallelogram (10-41), docs/whitney.md §6.2, in X = F_x/F_z, Y = M/(r F_z).
 
     With lambda = l/(mu d): two-point lines Y = +-lambda - mu (1 + lambda) X, one-point edges
     X = +-1/mu. Returns lambda, ``slope`` of both lines, their Y intercepts (+-lambda), the
     X intercepts (+-lambda/((lambda+1) mu)), ``x_edge`` = 1/mu, the four ``vertices`` in polygon
-    order and ``wedged`` (lambda < 1, §5: every load can be held).
+    order and ``wedged`` (lambda < 1, §6.1: every load can be held).
     """
     if not (math.isfinite(friction) and friction > 0.0):
         raise WhitneyInvalidError(f"friction={friction!r} must be finite and > 0")
