@@ -4,9 +4,16 @@
 #   snakemake --report results/report.html         self-contained report
 
 
+import os
+
 from snakemake.utils import min_version
 
 min_version("9.0")
+
+# Jobs are single-threaded: NumPy/BLAS and Drake must not oversubscribe a core (locally or on
+# a cluster node; sbatch passes the environment on).
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 configfile: "config/config.yaml"

@@ -7,8 +7,6 @@ rule plan:
         f"logs/planning/{PLANNING.wildcard_pattern}.log",
     benchmark:
         f"benchmarks/planning/{PLANNING.wildcard_pattern}.tsv"
-    group:
-        "planning"
     conda:
         "../envs/pih.yaml"
     threads: 1
