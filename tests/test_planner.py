@@ -280,36 +280,38 @@ def _trace_at(poses: np.ndarray, overlap: float = 0.0):
     )
 
 
-def test_deepest_explored_aims_below_the_deepest_pose_and_remembers_it():
+def test_deepest_explored_aims_along_the_hole_axis_below_the_deepest_pose():
     config = replace(PlannerConfig(), outer=OuterConfig(rule="deepest_explored"))
-    outer = OuterLevel(config, hole_depth_m=0.01)
+    outer = OuterLevel(config, hole_depth_m=0.01, hole_theta_rad=0.0)
     sensed = np.array([0.006, -0.01, 0.0])
     assert np.array_equal(outer.goal(sensed), sensed)  # nothing explored yet
     # On the surface only (top at y = 0): the paper's rule.
     outer.observe([_trace_at([[0.004, 0.0, 0.0], [-0.02, 0.0, 0.0]])], slice(None))
     assert np.array_equal(outer.goal(sensed), [0.004, 0.0, 0.0])
-    # A pose 3 mm into the chamfer: aim at the sensed depth straight below it.
+    # A near-upright pose 3 mm into the chamfer: aim at the sensed depth and tilt below it.
     outer.observe([_trace_at([[0.0012, -0.003, 0.01], [0.004, 0.0, 0.0]])], slice(None))
-    assert np.allclose(outer.goal(sensed), [0.0012, -0.01, 0.01])
+    assert np.allclose(outer.goal(sensed), [0.0012, -0.01, 0.0])
     # A later iteration that stays on the surface does not forget it...
     outer.observe([_trace_at([[0.004, 0.0, 0.0]])], slice(None))
-    assert np.allclose(outer.goal(np.array([0.009, -0.01, 0.0])), [0.0012, -0.01, 0.01])
-    # ...and a deep pose that is a solver overlap transient is not trusted.
+    assert np.allclose(outer.goal(np.array([0.009, -0.01, 0.0])), [0.0012, -0.01, 0.0])
+    # ...and neither a deeper solver overlap transient nor a steeply tilted peg dipping its tip
+    # centre below the surface from beside the hole counts.
     outer.observe([_trace_at([[0.01, -0.008, 0.0]], overlap=2 * CLEAN_OVERLAP_M)], slice(None))
+    outer.observe([_trace_at([[-0.0023, -0.009, -0.5566]])], slice(None))
     assert outer.deepest[0] == pytest.approx(0.0012)
-    sensed_tilt = replace(config, outer=OuterConfig(rule="deepest_explored", goal_tilt="sensed"))
-    tilted = OuterLevel(sensed_tilt, hole_depth_m=0.01)
-    tilted.observe([_trace_at([[0.0012, -0.003, 0.01]])], slice(None))
-    assert tilted.goal(sensed)[2] == 0.0
 
 
 def test_explored_argmin_is_the_papers_rule_on_the_previous_iteration():
-    outer = OuterLevel(PlannerConfig(), hole_depth_m=0.01)
+    outer = OuterLevel(PlannerConfig(), hole_depth_m=0.01, hole_theta_rad=0.0)
     sensed = np.array([0.005, -0.01, 0.0])
     outer.observe([_trace_at([[0.0, -0.009, 0.0], [0.005, 0.0, 0.0]])], slice(None))
     assert np.array_equal(outer.goal(sensed), [0.0, -0.009, 0.0])
     outer.observe([_trace_at([[0.005, 0.0, 0.0]])], slice(None))  # Q_P is reset each iteration
     assert np.array_equal(outer.goal(sensed), [0.005, 0.0, 0.0])
+    level = replace(PlannerConfig(), outer=OuterConfig(goal_tilt="sensed"))
+    sensed_tilt = OuterLevel(level, hole_depth_m=0.01, hole_theta_rad=0.0)
+    sensed_tilt.observe([_trace_at([[0.0, -0.009, 0.04]])], slice(None))
+    assert np.array_equal(sensed_tilt.goal(sensed), [0.0, -0.009, 0.0])
 
 
 def test_cost_balance_divides_each_term_by_its_first_iteration_median():

@@ -132,16 +132,20 @@ class OuterConfig:
 
     # "explored_argmin": the paper's rule, arg min J_out over the peg-tip poses P2 explored by
     # the previous iteration. "deepest_explored": once some rollout has put P2 more than
-    # entry_depth_m below the hole's top surface, aim at the hole's sensed depth y_H (eq. 16b:
-    # exact) straight below the deepest P2 explored so far; before that, the paper's rule.
+    # entry_depth_m below the hole's top surface with the peg within max_tilt_rad of the hole's
+    # axis, aim along that axis (x of the deepest such P2 so far, the sensed depth y_H and tilt
+    # θ_H, eq. 16b: exact); before that, the paper's rule.
     rule: OuterRule = "explored_argmin"
-    # The goal's tilt: the chosen explored pose's ("explored") or the sensed θ_H ("sensed").
+    # The paper's rule's goal tilt: the chosen explored pose's ("explored") or θ_H ("sensed").
     goal_tilt: GoalTilt = "explored"
-    # deepest_explored: how far below the top surface counts as inside the chamfer or hole.
+    # deepest_explored: how far below the top surface counts as inside the chamfer or hole...
     entry_depth_m: float = 0.001
+    # ...for a peg this close to upright (a steeply tilted peg can dip its tip centre into the
+    # chamfer from beside the hole).
+    max_tilt_rad: float = 0.05
 
     def validate(self, prefix: str = "") -> None:
-        require_positive(self, ("entry_depth_m",), prefix)
+        require_positive(self, ("entry_depth_m", "max_tilt_rad"), prefix)
 
 
 @dataclass(frozen=True)
@@ -286,23 +290,32 @@ class OuterLevel:
     clean P2 pose of the whole run so far (used by the ``deepest_explored`` rule).
     """
 
-    def __init__(self, config: PlannerConfig, hole_depth_m: float) -> None:
+    def __init__(self, config: PlannerConfig, hole_depth_m: float, hole_theta_rad: float) -> None:
         self.config = config
         self.hole_depth_m = hole_depth_m
+        self.hole_theta_rad = hole_theta_rad  # θ_H, sensed exactly (eq. 16b)
         self.explored: NDArray[np.float64] | None = None
         self.deepest: NDArray[np.float64] | None = None
 
     def observe(self, traces: list[Trace], samples: slice) -> None:
-        """Q_P ← the P2 poses of this iteration's non-diverged rollouts."""
+        """Q_P ← the P2 poses of this iteration's non-diverged rollouts; remember the deepest
+        clean, near-upright one of the run."""
         ok = [t for t in traces if t.ok]
         if not ok:
             return
         self.explored = np.vstack([t.q_peg_bottom[samples] for t in ok])
-        clean = np.vstack(
-            [t.q_peg_bottom[samples][t.penetration_m[samples] <= CLEAN_OVERLAP_M] for t in ok]
+        upright = self.config.outer.max_tilt_rad
+        candidates = np.vstack(
+            [
+                t.q_peg_bottom[samples][
+                    (t.penetration_m[samples] <= CLEAN_OVERLAP_M)
+                    & (np.abs(t.q_peg_bottom[samples][:, 2] - self.hole_theta_rad) <= upright)
+                ]
+                for t in ok
+            ]
         )
-        if clean.size:
-            candidate = clean[int(np.argmin(clean[:, 1]))]
+        if candidates.size:
+            candidate = candidates[int(np.argmin(candidates[:, 1]))]
             if self.deepest is None or candidate[1] < self.deepest[1]:
                 self.deepest = candidate
 
@@ -317,9 +330,8 @@ class OuterLevel:
             and self.deepest is not None
             and self.deepest[1] < top_y - cfg.entry_depth_m
         ):
-            chosen = np.array([self.deepest[0], sensed[1], self.deepest[2]])
-        else:
-            chosen = outer_goal(self.explored, sensed, self.config.sensing).copy()
+            return np.array([self.deepest[0], sensed[1], sensed[2]])  # along the hole's axis
+        chosen = outer_goal(self.explored, sensed, self.config.sensing).copy()
         if cfg.goal_tilt == "sensed":
             chosen[2] = sensed[2]
         return chosen
@@ -601,7 +613,7 @@ class Planner:
             dataclasses.replace(cfg.optimizer, seed=self.seeds["exploration"]),
             np.zeros(3 * cfg.dmp.n_basis),
         )
-        outer = OuterLevel(cfg, self.scene.config.hole.depth_m)
+        outer = OuterLevel(cfg, self.scene.config.hole.depth_m, self.scene.hole_pose[2])
         balance = CostBalance(cfg.costs)
         recorder = RunRecorder(self.scene.hole_pose, cfg.success_tolerance_m, self.scene)
         stop_reason = f"iteration budget ({cfg.iterations})"
