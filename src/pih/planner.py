@@ -480,11 +480,13 @@ class RunRecorder:
         terms: list[CostTerms | None],
         costs: NDArray[np.float64],
         sigma: float,
+        first_rollout: int = 0,
     ) -> None:
+        """Rows of one iteration's rollouts (or of deployment trials from ``first_rollout``)."""
         target_error = float(np.hypot(*(target[:2] - self.hole_xy)))
         goal = self.scene.peg_top_from_bottom(target)
         first = len(self.rows)
-        for r, (trace, term, cost) in enumerate(zip(traces, terms, costs)):
+        for r, (trace, term, cost) in enumerate(zip(traces, terms, costs), first_rollout):
             final = trace.q_peg_bottom[-1] if len(trace) else np.full(3, np.nan)
             error = float(np.hypot(*(final[:2] - self.hole_xy)))
             self.rows.append(
@@ -669,19 +671,11 @@ class Planner:
             sensed = self.sense_hole(rng)
             target = self.target(outer, sensed)
             trace, terms = self.evaluate(self.dmp(target), policy, sensed)
-            first = len(recorder.rows)
+            costs = balance.totals([terms])
             recorder.add(
-                "deploy",
-                iterations_trained,
-                sensed,
-                target,
-                [trace],
-                [terms],
-                balance.totals([terms]),
-                0.0,
+                "deploy", iterations_trained, sensed, target, [trace], [terms], costs, 0.0, trial
             )
-            recorder.rows[first]["rollout"] = trial
-            successes += recorder.rows[first]["success"]
+            successes += recorder.rows[-1]["success"]
         return successes / self.config.deploy_trials
 
     def _converged(self, best_costs: list[float]) -> bool:
