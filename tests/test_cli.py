@@ -45,3 +45,30 @@ def test_unknown_key_is_an_error_naming_the_keys(table, capsys):
     assert "no key 'no_such_key'" in err and "seeds" in err
     assert main(["provenance", str(table), "--key", "seeds"]) == 0
     assert '"noise": 7' in capsys.readouterr().out
+
+
+def test_plot_draws_one_planning_run(tmp_path, capsys):
+    from pih.config import to_mapping
+    from pih.dmp import DmpConfig
+    from pih.optimizers import OptimizerConfig
+    from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS, Planner, PlannerConfig, replace
+    from pih.scene import SceneConfig
+
+    config = replace(
+        PlannerConfig(),
+        iterations=2,
+        deploy_trials=1,
+        settle_s=0.1,
+        dmp=DmpConfig(duration_s=1.0),
+        optimizer=OptimizerConfig(population_size=2),
+    )
+    run = Planner.from_configs(SceneConfig(), config).run()
+    provenance = record(
+        "plan", config={"scene": to_mapping(SceneConfig()), "planner": to_mapping(config)}
+    )
+    write_table(run.rollouts, tmp_path / "rollouts.parquet", provenance, ROLLOUT_COLUMNS)
+    write_table(run.best_paths, tmp_path / "best_paths.parquet", provenance, PATH_COLUMNS)
+    assert main(["plot", str(tmp_path)]) == 0
+    assert (tmp_path / "run.png").stat().st_size > 10_000
+    assert main(["plot", str(tmp_path / "missing")]) == 1
+    assert "not a planning run directory" in capsys.readouterr().err

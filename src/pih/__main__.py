@@ -2,6 +2,7 @@
 
 - ``pih show FILE``: a Parquet output's columns with units, row count and provenance summary;
 - ``pih provenance FILE... [--key K]``: the full provenance record (Parquet or recording);
+- ``pih plot RUN_DIR``: one planning run's cost curve and best paths, as ``RUN_DIR/run.png``;
 - ``pih schema``: the JSON schema of the study's config.
 """
 
@@ -24,9 +25,13 @@ def main(argv: list[str] | None = None) -> int:
     commands.add_parser("schema", help="print the JSON schema of config/config.yaml")
     look = commands.add_parser("show", help="columns, units, rows and provenance of a Parquet file")
     look.add_argument("file", type=Path)
+    plot = commands.add_parser("plot", help="cost curve and best paths of one planning run")
+    plot.add_argument("run", type=Path, help="a results/planning/<sweep point>/ directory")
     args = parser.parse_args(argv)
     if args.command == "show":
         return _show(args.file)
+    if args.command == "plot":
+        return _plot(args.run)
     if args.command == "schema":
         from pih.workflow import config_schema
 
@@ -76,6 +81,28 @@ def _show(path: Path) -> int:
         f"code {record['code_version']}, library {record['library_sha256'][:12]}, "
         f"drake {record['packages']['drake']}, created {record['created_utc']}"
     )
+    return 0
+
+
+def _plot(run: Path) -> int:
+    import pandas as pd
+
+    from pih import plots
+    from pih.config import from_mapping
+    from pih.scene import SceneConfig
+
+    try:
+        rollouts = pd.read_parquet(run / "rollouts.parquet")
+        paths = pd.read_parquet(run / "best_paths.parquet")
+        record = read_provenance(run / "rollouts.parquet")
+    except Exception as error:  # noqa: BLE001 - any unreadable run: one clear line
+        first = str(error).splitlines()[0] if str(error) else type(error).__name__
+        print(f"{run}: not a planning run directory ({first})", file=sys.stderr)
+        return 1
+    scene = from_mapping(SceneConfig, record["config"]["scene"], "scene")
+    target = run / "run.png"
+    plots.save(plots.run_figure(rollouts, paths, scene.hole, run.name), target, provenance=record)
+    print(target)
     return 0
 
 

@@ -223,6 +223,49 @@ def deploy_success_figure(table: pd.DataFrame) -> plt.Figure:
     return fig
 
 
+def run_figure(
+    rollouts: pd.DataFrame, best_paths: pd.DataFrame, hole: HoleConfig, title: str
+) -> plt.Figure:
+    """One planning run: best J_inn per iteration, the goal's true distance from the hole, and
+    the best peg-tip paths (darker = later), with the deployment outcome in the title."""
+    train = rollouts[rollouts["phase"] == "train"]
+    best = train[train["is_best"]].sort_values("iteration")
+    deploy = rollouts[rollouts["phase"] == "deploy"]
+    fig, (cost_ax, goal_ax, path_ax) = plt.subplots(1, 3, figsize=(14, 4))
+    cost_ax.plot(best["iteration"], best["cost"], marker=".")
+    if (best["cost"] > 0).any():
+        cost_ax.set_yscale("log")
+    cost_ax.set_xlabel("iteration")
+    cost_ax.set_ylabel("best inner cost $J_{inn}$ (eq. 11)")
+    goal_ax.plot(best["iteration"], 1e3 * best["target_hole_error_m"], marker=".")
+    goal_ax.axhline(1.0, color="grey", ls=":", label="1 mm")
+    goal_ax.set_xlabel("iteration")
+    goal_ax.set_ylabel("goal's true distance from the hole (mm)")
+    goal_ax.legend(fontsize=8)
+    iterations = sorted(best_paths["iteration"].unique())
+    for wall in hole_outline(hole):
+        path_ax.plot(1e3 * wall[:, 0], 1e3 * wall[:, 1], color="tab:brown", lw=1)
+    for k, iteration in enumerate(iterations):
+        part = best_paths[best_paths["iteration"] == iteration]
+        shade = plt.get_cmap("Greys")(0.25 + 0.75 * k / max(1, len(iterations) - 1))
+        path_ax.plot(
+            1e3 * part["peg_bottom_x_m"], 1e3 * part["peg_bottom_y_m"], color=shade, lw=0.8
+        )
+    path_ax.plot(1e3 * hole.x_m, 1e3 * hole.y_m, "k+", ms=10, label="hole H")
+    path_ax.set_aspect("equal")
+    path_ax.set_xlim(-45, 20)
+    path_ax.set_ylim(-15, 15)
+    path_ax.set_xlabel("x (mm)")
+    path_ax.set_ylabel("y (mm)")
+    path_ax.legend(fontsize=8)
+    for ax in (cost_ax, goal_ax, path_ax):
+        ax.grid(alpha=0.3)
+    outcome = f"deployment {deploy['success'].mean():.0%} of {len(deploy)}" if len(deploy) else ""
+    fig.suptitle(f"{title}: {outcome}", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
 def best_paths_figure(best_paths: pd.DataFrame, hole: HoleConfig, title: str) -> plt.Figure:
     """Best peg-tip (a) and robot (b) paths of every iteration, grey by iteration (paper Fig. 8)."""
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), sharex=True, sharey=True)
