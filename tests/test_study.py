@@ -65,6 +65,7 @@ def test_bands_and_success_table_per_method_and_dimension():
             "goal_iteration": [3, None, 10],
             "final_success_fraction": [1.0, 0.0, 0.5],
             "diverged_fraction": [0.1, 0.0, 0.2],
+            "deploy_diverged_fraction": [0.0, 0.5, 1.0],
         }
     )
     table = success_table(summaries, ["planner.method", "planner.seed"])
@@ -77,6 +78,7 @@ def test_bands_and_success_table_per_method_and_dimension():
     assert math.isnan(overall.loc["a", "median_first_success_iteration"])
     assert overall.loc["b", "median_goal_iteration"] == 10
     assert overall.loc["b", "mean_last10_success_fraction"] == 0.5
+    assert overall.loc["a", "deploy_diverged_fraction"] == 0.25
     assert overall.loc["a", "first_success_rate"] == 0.5
     seed_one = table[(table["dimension"] == "planner.seed") & (table["level"] == "1")]
     assert seed_one["method"].tolist() == ["a"] and seed_one["runs"].tolist() == [1]

@@ -220,6 +220,10 @@ SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
         "median first iteration whose goal was within tolerance of the true hole (never: NaN)",
     ),
     "diverged_rollout_fraction": ("1", "mean fraction of diverged training rollouts"),
+    "deploy_diverged_fraction": (
+        "1",
+        "mean fraction of deployment trials that ended in a simulation failure (not successes)",
+    ),
 }
 
 
@@ -310,6 +314,7 @@ def success_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFram
                     ),
                     "median_goal_iteration": _median_or_never(runs["goal_iteration"], n),
                     "diverged_rollout_fraction": float(runs["diverged_fraction"].mean()),
+                    "deploy_diverged_fraction": float(runs["deploy_diverged_fraction"].mean()),
                 }
             )
         return pd.DataFrame(rows)
