@@ -1,6 +1,7 @@
 """Costs (eq. 11, 15), the outer level, sensing, and Algorithm 1's bookkeeping."""
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -177,20 +178,21 @@ def test_bad_planner_config_is_rejected_before_simulation(edit, message):
         from_mapping(PlannerConfig, data, "planner")
 
 
-def test_planner_config_defaults_are_table_4():
-    config = PlannerConfig()
-    assert (
-        config.costs.regularization,
-        config.costs.spring_energy,
-        config.costs.hole_distance,
-    ) == (
-        1e4,
-        20.0,
-        10.0,
-    )
-    assert (config.sensing.bias_m, config.sensing.std_m) == (0.005, 0.005)
-    assert (config.optimizer.population_size, config.iterations) == (10, 50)
-    assert dataclasses.asdict(SceneConfig().spring)["stiffness"] == (1000.0, 1000.0, 1.0)
+def test_the_study_config_and_the_python_defaults_are_the_same_table_4_values():
+    import yaml
+
+    from pih.study import resolve
+
+    study = yaml.safe_load((Path(__file__).parents[1] / "config" / "config.yaml").read_text())
+    scene, planner = resolve(study)
+    # Table 4: α1–α3, μ_x, σ_x, r, iterations, k, μ; and the one source of truth for both.
+    assert (planner.costs.regularization, planner.costs.spring_energy) == (1e4, 20.0)
+    assert planner.costs.hole_distance == 10.0
+    assert (planner.sensing.bias_m, planner.sensing.std_m) == (0.005, 0.005)
+    assert (planner.optimizer.population_size, planner.iterations) == (10, 50)
+    assert scene.spring.stiffness == (1000.0, 1000.0, 1.0) and scene.material.friction == 0.6
+    assert planner == PlannerConfig()
+    assert scene == SceneConfig()
 
 
 def test_convergence_stop_ends_the_run_early_and_says_why():

@@ -50,7 +50,7 @@ class DmpConfig:
     alpha: float = 25.0
     beta: float = 6.25
     alpha_s: float = 4.0
-    duration_s: float = 3.5
+    duration_s: float = 3.0  # T; not in the paper (docs/planner.md)
     min_amplitude: tuple[float, float, float] = (0.01, 0.01, 0.1)
 
     def __post_init__(self) -> None:

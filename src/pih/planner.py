@@ -175,7 +175,7 @@ class PlannerConfig:
     convergence_window: int = 0
     convergence_tolerance: float = 0.01
     # T = 3 s (not in the paper): 3.3 s simulated per rollout with the settling time.
-    dmp: DmpConfig = field(default_factory=lambda: DmpConfig(duration_s=3.0))
+    dmp: DmpConfig = field(default_factory=DmpConfig)
     optimizer: OptimizerConfig = field(default_factory=OptimizerConfig)
     costs: CostConfig = field(default_factory=CostConfig)
     sensing: SensingConfig = field(default_factory=SensingConfig)
