@@ -36,27 +36,27 @@ rule planning_aggregate:
         runs="results/planning/summary/runs.parquet",
         bands="results/planning/summary/cost_bands.parquet",
         success="results/planning/summary/success.parquet",
-        success_markdown=report(
-            "results/planning/summary/success.md",
+        success_markdown="results/planning/summary/success.md",
+        success_csv=report(
+            "results/planning/summary/success.csv",
             caption="../report/success.rst",
-            category="Planning",
+            category="§3 Planning: one-level vs bilevel",
         ),
-        success_csv="results/planning/summary/success.csv",
         ablation="results/planning/summary/ablation.parquet",
         ablation_markdown=report(
             "results/planning/summary/ablation.md",
             caption="../report/ablation.rst",
-            category="Planning",
+            category="§3 Planning: one-level vs bilevel",
         ),
         fig_ablation=report(
             "results/planning/summary/fig_deploy_success.png",
             caption="../report/fig_deploy_success.rst",
-            category="Planning",
+            category="§3 Planning: one-level vs bilevel",
         ),
         fig_bands=report(
             "results/planning/summary/fig9_cost_bands.png",
             caption="../report/fig9.rst",
-            category="Planning",
+            category="§3 Planning: one-level vs bilevel",
         ),
         fig_bands_pdf="results/planning/summary/fig9_cost_bands.pdf",
         fig_paths=report(
@@ -65,7 +65,7 @@ rule planning_aggregate:
                 point=FIGURE_POINTS,
             ),
             caption="../report/fig8.rst",
-            category="Planning",
+            category="§3 Planning: one-level vs bilevel",
         ),
     log:
         "logs/planning/aggregate.log",

@@ -5,6 +5,7 @@ rule provenance_index:
         rules.planning_aggregate.output.runs,
         rules.planning_aggregate.output.bands,
         rules.planning_aggregate.output.success,
+        rules.planning_aggregate.output.ablation,
         expand("results/whitney/offset_m~{offset}.parquet", offset=VALIDATION_OFFSETS),
         expand(
             "results/validation/{model}/offset_m~{offset}.parquet",

@@ -51,31 +51,31 @@ rule validation_compare:
     output:
         table="results/validation/comparison.parquet",
         aligned="results/validation/aligned_curves.parquet",
-        markdown=report(
-            "results/validation/comparison.md",
+        markdown="results/validation/comparison.md",
+        csv=report(
+            "results/validation/comparison.csv",
             caption="../report/comparison.rst",
-            category="Validation",
+            category="§2.4 Validation: hydroelastic vs Whitney",
         ),
-        csv="results/validation/comparison.csv",
         fig_fx=report(
             "results/validation/fig4_fx_vs_depth.png",
             caption="../report/fig4.rst",
-            category="Validation",
+            category="§2.4 Validation: hydroelastic vs Whitney",
         ),
         fig_fz=report(
             "results/validation/figA1_fz_vs_depth.png",
             caption="../report/figA1.rst",
-            category="Validation",
+            category="§2.4 Validation: hydroelastic vs Whitney",
         ),
         fig_theta=report(
             "results/validation/figA2_angle_vs_depth.png",
             caption="../report/figA2.rst",
-            category="Validation",
+            category="§2.4 Validation: hydroelastic vs Whitney",
         ),
         fig_scatter=report(
             "results/validation/fig5_sim_vs_theory.png",
             caption="../report/fig5.rst",
-            category="Validation",
+            category="§2.4 Validation: hydroelastic vs Whitney",
         ),
         pdfs=expand(
             "results/validation/{name}.pdf",
