@@ -352,7 +352,6 @@ class CostBalance:
     """eq. 11's total, optionally with each term divided by its first-iteration median."""
 
     def __init__(self, config: CostConfig) -> None:
-        self.config = config
         self.divisors = np.ones(len(COST_TERMS))
         self._fixed = config.balance == "none"
 
@@ -495,7 +494,10 @@ class RunRecorder:
                     "iteration": iteration,
                     "rollout": r,
                     "cost": float(cost),
-                    **dict(zip(ROLLOUT_COLUMNS_TERMS, term.values if term else [np.nan] * 3)),
+                    **{
+                        f"cost_{name}": value
+                        for name, value in zip(COST_TERMS, term.values if term else [np.nan] * 3)
+                    },
                     **_pose_columns("sensed_hole", sensed),
                     **_pose_columns("target", target),
                     "target_hole_error_m": target_error,
@@ -536,9 +538,6 @@ class RunRecorder:
             pd.DataFrame(self.rows)[list(ROLLOUT_COLUMNS)],
             pd.concat(self.paths, ignore_index=True)[list(PATH_COLUMNS)],
         )
-
-
-ROLLOUT_COLUMNS_TERMS = tuple(f"cost_{name}" for name in COST_TERMS)
 
 
 # --------------------------------------------------------------------------------------------
