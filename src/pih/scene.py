@@ -510,7 +510,7 @@ class PegInHoleScene:
         self._robot_source.set_name("robot_trajectory")
         # The spring of eq. 7–10, τ = [K D](x_R − x_P1), stateless and evaluated at the start of
         # each step. (Drake's PidController adds a continuous integrator state, which turns every
-        # discrete step into an error-controlled integration: 30 % slower; docs/simulation.md.)
+        # discrete step into an error-controlled integration; measured in docs/simulation.md.)
         gains = np.hstack([np.diag(cfg.spring.stiffness), np.diag(self.config.spring_damping)])
         robot_term = builder.AddSystem(MatrixGain(gains))
         peg_term = builder.AddSystem(MatrixGain(-gains))
