@@ -79,14 +79,17 @@ def sweep_points(
     for levels in itertools.product(*sweep.values()):
         point = dict(zip(sweep, (_plain(v) for v in levels)))
         if point.get(METHOD_KEY) == "one_level":
-            effective = {**variants.get(point.get(VARIANT_KEY), {}), **point}
-            effective.pop(VARIANT_KEY, None)
-            effective = canonical_json(
-                {k: v for k, v in effective.items() if not k.startswith(OUTER_PREFIX)}
+            settings = {**variants.get(point.get(VARIANT_KEY), {}), **point}
+            key = canonical_json(
+                {
+                    k: v
+                    for k, v in settings.items()
+                    if k != VARIANT_KEY and not k.startswith(OUTER_PREFIX)
+                }
             )
-            if effective in one_level_seen:
+            if key in one_level_seen:
                 continue
-            one_level_seen.add(effective)
+            one_level_seen.add(key)
         points.append(point)
     return points
 
