@@ -87,18 +87,24 @@ def validation_curves(
                     label=f"Drake {model}",
                     **MODEL_STYLE.get(model, {}),
                 )
-        for name, depth in markers[offset].items():
-            if not shown[0] <= depth <= shown[1]:
-                continue
+        shown_markers = sorted(
+            (depth, name)
+            for name, depth in markers[offset].items()
+            if shown[0] <= depth <= shown[1]
+        )
+        for k, (depth, name) in enumerate(shown_markers):
             ax.axvline(1e3 * depth, color="grey", lw=0.6, ls=":")
+            # Phases can start within a millimetre of each other: stagger the labels in height.
             ax.annotate(
                 name,
-                (1e3 * depth, 1.0),
+                (1e3 * depth, 0.97 - 0.08 * (k % 3)),
                 xycoords=("data", "axes fraction"),
+                xytext=(2, 0),
+                textcoords="offset points",
                 fontsize=7,
-                rotation=90,
                 va="top",
-                ha="right",
+                ha="left",
+                color="dimgrey",
             )
         ax.set_title(
             f"$\\epsilon_0$ = {1e3 * offset:g} mm ($x_P$ = {-1e3 * offset:g} mm)", fontsize=9
@@ -115,19 +121,19 @@ def validation_curves(
 def force_scatter(aligned: Mapping[tuple[str, float], pd.DataFrame]) -> plt.Figure:
     """Simulated vs theoretical F_x and F_z at the same aligned depth (paper Fig. 5)."""
     fig, axes = plt.subplots(1, 2, figsize=(9, 4))
-    colours = plt.get_cmap("viridis")
     offsets = sorted({off for _, off in aligned})
+    offset_markers = "os^Dv"
     for ax, quantity in zip(axes, ("f_x_n", "f_z_n")):
         for (model, offset), frame in aligned.items():
-            colour = colours(offsets.index(offset) / max(1, len(offsets) - 1))
-            marker = "." if model == "hydroelastic" else "x"
+            k = offsets.index(offset)
             ax.plot(
                 frame[f"theory_{quantity}"],
                 frame[f"sim_{quantity}"],
-                marker,
-                ms=2,
-                color=colour,
-                label=f"{model}, {1e3 * offset:g} mm",
+                offset_markers[k % len(offset_markers)],
+                ms=1.5,
+                alpha=0.6,
+                color=MODEL_STYLE.get(model, {}).get("color", "grey"),
+                label=f"{model}, $\\epsilon_0$ = {1e3 * offset:g} mm",
             )
         lo, hi = ax.get_xlim()
         ax.plot([lo, hi], [lo, hi], color="black", lw=0.8)
@@ -266,40 +272,67 @@ def run_figure(
     return fig
 
 
-def best_paths_figure(best_paths: pd.DataFrame, hole: HoleConfig, title: str) -> plt.Figure:
-    """Best peg-tip (a) and robot (b) paths of every iteration, grey by iteration (paper Fig. 8)."""
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), sharex=True, sharey=True)
+def best_paths_figure(
+    best_paths: pd.DataFrame, hole: HoleConfig, title: str, goals: pd.DataFrame | None = None
+) -> plt.Figure:
+    """Best peg-tip (a) and robot (b) paths of every iteration, shaded by iteration, with the
+    true hole and each iteration's goal (``goals``: the best rollouts' rows with iteration,
+    target_x/y_m, the peg-tip target, and goal_x/y_m, the robot's DMP goal) (paper Fig. 8)."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8), sharex=True, sharey=True)
     iterations = sorted(best_paths["iteration"].unique())
-    cmap = plt.get_cmap("Greys")
-    for ax, (x, y, name) in zip(
-        axes,
+    cmap = plt.get_cmap("viridis")
+    norm = matplotlib.colors.Normalize(min(iterations, default=1), max(iterations, default=1))
+    robot_drop_m = 0.0
+    if len(best_paths):
+        first = best_paths.iloc[0]
+        robot_drop_m = first["robot_y_m"] - first["peg_bottom_y_m"]
+    panels = (
+        ("peg_bottom", "target", 0.0, "(a) best peg tip P2 paths and peg-tip targets"),
         (
-            ("peg_bottom_x_m", "peg_bottom_y_m", "(a) best peg tip P2 path"),
-            ("robot_x_m", "robot_y_m", "(b) best robot path R (minus peg length)"),
+            "robot",
+            "goal",
+            robot_drop_m,
+            (
+                f"(b) best robot frame R paths and DMP goals, {1e3 * robot_drop_m:g} mm lower\n"
+                "(R is the spring's end, not the peg: it may cross a wall)"
+            ),
         ),
-    ):
+    )
+    for ax, (path, goal, drop, name) in zip(axes, panels):
+        x, y = f"{path}_x_m", f"{path}_y_m"
         for wall in hole_outline(hole):
             ax.plot(1e3 * wall[:, 0], 1e3 * wall[:, 1], color="tab:brown", lw=1)
-        for k, iteration in enumerate(iterations):
+        for iteration in iterations:
             part = best_paths[best_paths["iteration"] == iteration]
-            shift = (
-                0.0
-                if x.startswith("peg")
-                else part["robot_y_m"].iloc[0] - part["peg_bottom_y_m"].iloc[0]
+            ax.plot(1e3 * part[x], 1e3 * (part[y] - drop), color=cmap(norm(iteration)), lw=0.8)
+        if goals is not None and len(goals):
+            ax.scatter(
+                1e3 * goals[f"{goal}_x_m"],
+                1e3 * (goals[f"{goal}_y_m"] - drop),
+                c=goals["iteration"],
+                cmap=cmap,
+                norm=norm,
+                marker="x",
+                s=25,
+                lw=1.0,
+                zorder=3,
+                label="goal per iteration",
             )
-            ax.plot(
-                1e3 * part[x],
-                1e3 * (part[y] - shift),
-                color=cmap(0.25 + 0.75 * k / max(1, len(iterations) - 1)),
-                lw=0.8,
-            )
-        ax.set_title(name, fontsize=9)
+        ax.plot(1e3 * hole.x_m, 1e3 * hole.y_m, "r+", ms=11, mew=1.5, label="true hole H")
+        ax.set_title(name, fontsize=8)
         ax.set_xlabel("x (mm)")
         ax.set_ylabel("y (mm)")
         ax.set_aspect("equal")
         ax.set_xlim(-45, 20)
         ax.set_ylim(-15, 15)
         ax.grid(alpha=0.3)
-    fig.suptitle(f"{title}: darker = later iteration (paper Fig. 8)", fontsize=9)
-    fig.tight_layout()
+    axes[0].legend(fontsize=7, loc="lower left")
+    fig.colorbar(
+        matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap),
+        ax=axes,
+        label="iteration",
+        shrink=0.8,
+        ticks=matplotlib.ticker.MaxNLocator(integer=True),
+    )
+    fig.suptitle(f"Best paths per iteration (paper Fig. 8): {title}", fontsize=9)
     return fig

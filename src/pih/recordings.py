@@ -2,8 +2,7 @@
 
 Each recording's id is the run id of the Parquet file made by the same job, and the provenance
 record is attached as a recording property, so a ``.rrd`` and its Parquet are linked. Open with
-``rerun FILE.rrd`` (native viewer) or ``rerun --serve-web --bind 127.0.0.1 FILE.rrd`` (offline
-web viewer on port 9090).
+``rerun FILE.rrd`` or in a browser (README, "Recordings").
 """
 
 from __future__ import annotations
@@ -20,13 +19,37 @@ import rerun as rr
 import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
+from pih.frames import offset_along_axis
 from pih.provenance import canonical_json
 from pih.scene import HoleConfig, SceneConfig, Trace, wall_profile
 from pih.traces import write_with
+from pih.validation import error_side
 
 APPLICATION_ID = "pih"
 SPATIAL_PERIOD_S = 0.02  # spatial entities are logged at 50 Hz; scalar series at every step
 ROBOT_AXIS_M = 0.005  # the robot frame is drawn as its y axis (the peg's axis at rest), 5 mm long
+FORCE_ARROW_M_PER_N = 1e-3  # force arrows: 1 mm per newton
+# The scene's entities live under SCENE, which is drawn through a y-flip: Rerun's 2-D view draws
+# y downward and ignores view coordinates (rerun-io/rerun#1387), the paper's frame is y-up. The
+# logged values stay the paper's world coordinates (hovering shows them).
+SCENE = "world/scene"
+COLORS = {
+    "hole": (150, 150, 150),
+    "peg": (220, 220, 220),
+    "robot": (230, 80, 40),
+    "spring": (230, 160, 40),
+    "contact": (40, 120, 230),
+    "sensed_hole": (200, 40, 200),
+    "goal": (40, 180, 60),
+    "true_hole": (255, 255, 255),
+}
+# Time series: one colour per series, contact and spring forces in Whitney's convention.
+SERIES = {
+    "contact_f_x": ("contact F_x (N)", (40, 120, 230)),
+    "contact_f_z": ("contact F_z (N)", (120, 200, 255)),
+    "spring_f_x": ("spring F_x (N)", (230, 80, 40)),
+    "spring_f_z": ("spring F_z (N)", (240, 180, 60)),
+}
 
 
 def hole_outline(hole: HoleConfig) -> list[NDArray[np.float64]]:
@@ -62,36 +85,85 @@ def _open(
 
 
 def _log_scene(rec: rr.RecordingStream, scene: SceneConfig) -> None:
+    rec.log(SCENE, rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)
     rec.log(
-        "world/hole",
-        rr.LineStrips2D(hole_outline(scene.hole), colors=[(120, 120, 120)]),
+        f"{SCENE}/hole",
+        rr.LineStrips2D(hole_outline(scene.hole), colors=[COLORS["hole"]], labels=["hole", "hole"]),
         static=True,
     )
+
+
+def _log_peg(
+    rec: rr.RecordingStream,
+    scene: SceneConfig,
+    q_peg: NDArray[np.float64],
+    q_robot: NDArray[np.float64],
+    q_top: NDArray[np.float64],
+) -> None:
+    """The peg, the robot frame R and the spring R–P1 at one instant."""
+    rec.log(
+        f"{SCENE}/peg",
+        rr.LineStrips2D(
+            [peg_outline(q_peg, scene.peg.diameter_m, scene.peg.length_m)],
+            colors=[COLORS["peg"]],
+            labels=["peg"],
+        ),
+    )
+    theta = q_robot[2]
+    rec.log(
+        f"{SCENE}/robot",
+        rr.Arrows2D(
+            origins=[q_robot[:2]],
+            vectors=[[-ROBOT_AXIS_M * np.sin(theta), ROBOT_AXIS_M * np.cos(theta)]],
+            colors=[COLORS["robot"]],
+            labels=["robot frame R"],
+        ),
+    )
+    rec.log(
+        f"{SCENE}/spring",
+        rr.LineStrips2D([[q_robot[:2], q_top[:2]]], colors=[COLORS["spring"]], labels=["spring"]),
+    )
+
+
+def _series_styles(rec: rr.RecordingStream, entity: str, names: list[str]) -> None:
+    for name in names:
+        label, color = SERIES[name]
+        rec.log(f"{entity}/{name}", rr.SeriesLines(colors=[color], names=[label]), static=True)
 
 
 def record_insertion(
     path: str | Path, trace: Trace, scene: SceneConfig, run_id: str, provenance: Mapping[str, Any]
 ) -> None:
-    """Peg, hole outline, robot frame, spring and contact-force arrow in 2-D; forces vs time."""
+    """Validation insertion: peg, hole, robot frame, spring and contact-force arrow (y up); the
+    contact and spring forces in Whitney's convention (F_x toward the error side, F_z the
+    push-back) and the insertion depth ℓ against simulated time."""
     blueprint = rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial2DView(name="scene", origin="world"),
+            rrb.Spatial2DView(name="scene (y up)", origin="world"),
             rrb.Vertical(
-                rrb.TimeSeriesView(name="contact force (N)", origin="forces"),
-                rrb.TimeSeriesView(name="insertion depth (m)", origin="depth"),
+                rrb.TimeSeriesView(
+                    name="forces on the peg (N), Whitney's convention", origin="forces"
+                ),
+                rrb.TimeSeriesView(name="insertion depth ℓ (m)", origin="depth"),
             ),
         )
     )
+    side = error_side(trace, scene.hole.x_m)
+    series = {
+        "contact_f_x": side * trace.contact_force[:, 0],
+        "contact_f_z": trace.contact_force[:, 1],
+        "spring_f_x": side * trace.spring_force[:, 0],
+        "spring_f_z": trace.spring_force[:, 1],
+    }
 
     def write(target: Path) -> None:
         with _open(run_id, target, blueprint, provenance) as rec:
             _log_scene(rec, scene)
+            _series_styles(rec, "forces", list(series))
             times = rr.TimeColumn("sim_time", duration=trace.time_s)
-            for i, name in enumerate(("fx", "fy")):
+            for name, values in series.items():
                 rec.send_columns(
-                    f"forces/{name}",
-                    indexes=[times],
-                    columns=rr.Scalars.columns(scalars=trace.contact_force[:, i]),
+                    f"forces/{name}", indexes=[times], columns=rr.Scalars.columns(scalars=values)
                 )
             rec.send_columns(
                 "depth/l",
@@ -100,36 +172,16 @@ def record_insertion(
             )
             step = float(np.median(np.diff(trace.time_s))) if len(trace) > 1 else SPATIAL_PERIOD_S
             every = max(1, round(SPATIAL_PERIOD_S / step))
-            scale = 1e-3  # m per N for the force arrows
             for k in range(0, len(trace), every):
                 rec.set_time("sim_time", duration=float(trace.time_s[k]))
+                _log_peg(rec, scene, trace.q_peg[k], trace.q_robot[k], trace.q_peg_top[k])
                 rec.log(
-                    "world/peg",
-                    rr.LineStrips2D(
-                        [peg_outline(trace.q_peg[k], scene.peg.diameter_m, scene.peg.length_m)]
-                    ),
-                )
-                theta = trace.q_robot[k, 2]
-                rec.log(
-                    "world/robot",
-                    rr.Arrows2D(
-                        origins=[trace.q_robot[k, :2]],
-                        vectors=[[-ROBOT_AXIS_M * np.sin(theta), ROBOT_AXIS_M * np.cos(theta)]],
-                        colors=[(230, 80, 40)],
-                    ),
-                )
-                rec.log(
-                    "world/spring",
-                    rr.LineStrips2D(
-                        [[trace.q_robot[k, :2], trace.q_peg_top[k, :2]]], colors=[(230, 80, 40)]
-                    ),
-                )
-                rec.log(
-                    "world/contact_force",
+                    f"{SCENE}/contact_force",
                     rr.Arrows2D(
                         origins=[trace.q_peg_bottom[k, :2]],
-                        vectors=[scale * trace.contact_force[k, :2]],
-                        colors=[(40, 120, 230)],
+                        vectors=[FORCE_ARROW_M_PER_N * trace.contact_force[k, :2]],
+                        colors=[COLORS["contact"]],
+                        labels=["contact force"],
                     ),
                 )
 
@@ -144,52 +196,98 @@ def record_planning(
     run_id: str,
     provenance: Mapping[str, Any],
 ) -> None:
-    """Per iteration: best peg-tip and robot paths, sensed hole, DMP goal; cost series."""
+    """Planning run. Timeline ``iteration``: each iteration's best peg-tip and robot paths, the
+    sensed hole and the goal (peg-tip target), and the best J_inn. Timeline ``playback``: the peg animated
+    along every iteration's best rollout in turn (iteration i starts at (i − 1) × rollout time)."""
     blueprint = rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial2DView(name="paths", origin="world"),
+            rrb.Spatial2DView(name="paths (y up)", origin="world"),
             rrb.TimeSeriesView(name="best inner cost J_inn", origin="cost"),
         )
     )
     best = rollouts[rollouts["is_best"]].set_index("iteration")
+    rollout_s = float(best_paths["time_s"].max()) if len(best_paths) else 0.0
+    step = float(np.median(np.diff(best_paths["time_s"].unique()))) if len(best_paths) > 2 else 1.0
+    every = max(1, round(SPATIAL_PERIOD_S / step))
+    length = scene.peg.length_m
 
     def write(target: Path) -> None:
         with _open(run_id, target, blueprint, provenance) as rec:
             _log_scene(rec, scene)
+            rec.log(
+                f"{SCENE}/true_hole",
+                rr.Points2D(
+                    [[scene.hole.x_m, scene.hole.y_m]],
+                    radii=0.0006,
+                    colors=[COLORS["true_hole"]],
+                    labels=["true hole H"],
+                ),
+                static=True,
+            )
             for iteration, path_rows in best_paths.groupby("iteration"):
-                rec.set_time("iteration", sequence=int(iteration))
                 row = best.loc[iteration]
-                rec.log(
-                    "world/best_peg_tip_path",
-                    rr.LineStrips2D(
-                        [path_rows[["peg_bottom_x_m", "peg_bottom_y_m"]].to_numpy()],
-                        colors=[(40, 120, 230)],
-                    ),
-                )
-                rec.log(
-                    "world/best_robot_path",
-                    rr.LineStrips2D(
-                        [path_rows[["robot_x_m", "robot_y_m"]].to_numpy()], colors=[(230, 80, 40)]
-                    ),
-                )
-                rec.log(
-                    "world/sensed_hole",
-                    rr.Points2D(
-                        [[row["sensed_hole_x_m"], row["sensed_hole_y_m"]]],
-                        radii=0.001,
-                        colors=[(200, 40, 200)],
-                    ),
-                )
-                rec.log(
-                    "world/goal",
-                    rr.Points2D(
-                        [[row["goal_x_m"], row["goal_y_m"]]], radii=0.001, colors=[(40, 180, 60)]
-                    ),
-                )
+                start_s = (int(iteration) - 1) * (rollout_s + step)
+                for timeline in ("iteration", "playback"):
+                    rec.reset_time()
+                    if timeline == "iteration":
+                        rec.set_time("iteration", sequence=int(iteration))
+                    else:
+                        rec.set_time("playback", duration=start_s)
+                    _log_iteration(rec, row, path_rows)
+                rec.reset_time()
+                q_bottom = path_rows[
+                    ["peg_bottom_x_m", "peg_bottom_y_m", "peg_bottom_theta_rad"]
+                ].to_numpy()
+                q_robot = path_rows[["robot_x_m", "robot_y_m", "robot_theta_rad"]].to_numpy()
+                q_peg = offset_along_axis(q_bottom, length / 2)
+                q_top = offset_along_axis(q_bottom, length)
+                times = path_rows["time_s"].to_numpy()
+                for k in range(0, len(times), every):
+                    rec.set_time("playback", duration=start_s + float(times[k]))
+                    _log_peg(rec, scene, q_peg[k], q_robot[k], q_top[k])
                 if np.isfinite(row["cost"]):
+                    rec.set_time("iteration", sequence=int(iteration))
                     rec.log("cost/best", rr.Scalars(float(row["cost"])))
 
     write_with(path, write)
+
+
+def _log_iteration(rec: rr.RecordingStream, row: pd.Series, path_rows: pd.DataFrame) -> None:
+    """One iteration's best paths, sensed hole and goal (the peg-tip target of the DMP goal)."""
+    rec.log(
+        f"{SCENE}/best_peg_tip_path",
+        rr.LineStrips2D(
+            [path_rows[["peg_bottom_x_m", "peg_bottom_y_m"]].to_numpy()],
+            colors=[COLORS["contact"]],
+            labels=["best rollout: peg tip P2"],
+        ),
+    )
+    rec.log(
+        f"{SCENE}/best_robot_path",
+        rr.LineStrips2D(
+            [path_rows[["robot_x_m", "robot_y_m"]].to_numpy()],
+            colors=[COLORS["robot"]],
+            labels=["best rollout: robot frame R"],
+        ),
+    )
+    rec.log(
+        f"{SCENE}/sensed_hole",
+        rr.Points2D(
+            [[row["sensed_hole_x_m"], row["sensed_hole_y_m"]]],
+            radii=0.0008,
+            colors=[COLORS["sensed_hole"]],
+            labels=["sensed hole"],
+        ),
+    )
+    rec.log(
+        f"{SCENE}/goal",
+        rr.Points2D(
+            [[row["target_x_m"], row["target_y_m"]]],
+            radii=0.0008,
+            colors=[COLORS["goal"]],
+            labels=["goal (peg-tip target)"],
+        ),
+    )
 
 
 def read_recording_provenance(path: str | Path) -> dict[str, Any]:

@@ -162,6 +162,16 @@ def variant(planner: Mapping[str, Any]) -> str:
     return method if method == "one_level" else f"{method}/{planner['outer']['rule']}"
 
 
+def run_title(point: Mapping[str, Any], planner: Mapping[str, Any]) -> str:
+    """A run for a figure title: its method, then its other sweep levels (``start_x_m = -0.035``)."""
+    levels = [
+        f"{key.rsplit('.', 1)[-1]} = {_plain(value)}"
+        for key, value in point.items()
+        if not is_method_key(key)
+    ]
+    return ", ".join([variant(planner), *levels])
+
+
 def run_summary(rollouts: pd.DataFrame, tolerance_m: float) -> dict[str, Any]:
     """One planning run's outcome: deployment success (the headline) and the training view."""
     train = rollouts[rollouts["phase"] == "train"]

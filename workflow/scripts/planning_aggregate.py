@@ -15,9 +15,10 @@ from pih.study import (
     level_columns,
     markdown_table,
     run_tables,
+    run_title,
     success_table,
 )
-from pih.traces import write_table, write_text
+from pih.traces import read_provenance, write_table, write_text
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
@@ -48,7 +49,11 @@ with logged(snakemake.log[0]):
     )
     scene = from_mapping(SceneConfig, snakemake.params.scene, "scene")
     for source, png in zip(snakemake.input.best_paths, snakemake.output.fig_paths):
-        title = Path(source).parent.name
-        figure = plots.best_paths_figure(pd.read_parquet(source), scene.hole, title)
+        rollouts_file = Path(source).with_name("rollouts.parquet")
+        run = read_provenance(rollouts_file)
+        rollouts = pd.read_parquet(rollouts_file)
+        goals = rollouts[(rollouts["phase"] == "train") & rollouts["is_best"]]
+        title = run_title(run["sweep_point"], run["config"]["planner"])
+        figure = plots.best_paths_figure(pd.read_parquet(source), scene.hole, title, goals)
         plots.save(figure, png, provenance=record)
     print(success.to_string())
