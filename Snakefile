@@ -34,3 +34,4 @@ rule all:
         rules.validation_compare.output,
         rules.planning_aggregate.output,
         rules.provenance_index.output,
+        rules.summary.output,

@@ -34,8 +34,8 @@ FORCE_ARROW_M_PER_N = 1e-3  # force arrows: 1 mm per newton
 # logged values stay the paper's world coordinates (hovering shows them).
 SCENE = "world/scene"
 COLORS = {
-    "hole": (150, 150, 150),
-    "peg": (220, 220, 220),
+    "hole": (150, 110, 80),
+    "peg": (80, 80, 80),
     "robot": (230, 80, 40),
     "spring": (230, 160, 40),
     "contact": (40, 120, 230),
@@ -246,6 +246,7 @@ def record_planning(
                     rec.set_time("playback", duration=start_s + float(times[k]))
                     _log_peg(rec, scene, q_peg[k], q_robot[k], q_top[k])
                 if np.isfinite(row["cost"]):
+                    # On both timelines: per iteration, and at the end of its playback.
                     rec.set_time("iteration", sequence=int(iteration))
                     rec.log("cost/best", rr.Scalars(float(row["cost"])))
 

@@ -36,3 +36,34 @@ rule provenance_index:
         library=LIBRARY_HASH,
     script:
         "../scripts/provenance_index.py"
+
+
+rule summary:
+    input:
+        comparison=rules.validation_compare.output.table,
+        success=rules.planning_aggregate.output.success,
+    output:
+        summary=report(
+            "results/summary.md",
+            caption="../report/summary.rst",
+            category="Summary",
+        ),
+    log:
+        "logs/summary.log",
+    localrule: True
+    conda:
+        "../envs/pih.yaml"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    params:
+        links={
+            "planning: success per method and sweep level": "planning/summary/success.md",
+            "planning: ablation": "planning/summary/ablation.md",
+            "validation: every offset, model and alignment": "validation/comparison.md",
+            "provenance of every data file": "provenance.md",
+        },
+        library=LIBRARY_HASH,
+    script:
+        "../scripts/summary.py"

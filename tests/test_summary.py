@@ -1,0 +1,84 @@
+"""results/summary.md: the paper's numbers beside ours, read from the workflow's tables."""
+
+import numpy as np
+import pandas as pd
+
+from pih.summary import PAPER_PEARSON_R, planning_rows, summary_markdown, validation_rows
+
+
+def _comparison() -> pd.DataFrame:
+    rows = []
+    for alignment in ("chamfer_start", "first_peak"):
+        for model in ("hydroelastic", "point"):
+            for offset in (0.0005, 0.002):
+                rows.append(
+                    {
+                        "contact_model": model,
+                        "alignment": alignment,
+                        "offset": f"{1e3 * offset:g} mm",
+                        "offset_m": offset,
+                        **{
+                            f"rel_err_{k}_pct": 1.0 + offset * 1e3 + (alignment != "chamfer_start")
+                            for k in (
+                                "initial_f_x",
+                                "final_f_x",
+                                "initial_f_z",
+                                "final_f_z",
+                                "final_theta",
+                            )
+                        },
+                        "r_f_x": np.nan,
+                        "r_f_z": np.nan,
+                    }
+                )
+            rows.append(
+                {
+                    "contact_model": model,
+                    "alignment": alignment,
+                    "offset": "pooled",
+                    "offset_m": np.nan,
+                    "r_f_x": 0.98 if model == "hydroelastic" else 0.5,
+                    "r_f_z": 0.93 if alignment == "chamfer_start" else 0.1,
+                }
+            )
+    return pd.DataFrame(rows)
+
+
+def test_validation_rows_put_the_papers_table_beside_ours_for_hydroelastic_chamfer_start():
+    rows = validation_rows(_comparison())
+    initial_fx = rows[rows["result"].str.contains("initial F_x")]
+    assert initial_fx["offset_mm"].tolist() == [0.5, 2.0]
+    assert initial_fx["paper"].tolist() == [10.7575, 2.9370]
+    assert initial_fx["ours"].tolist() == [1.5, 3.0]  # the chamfer_start rows, not first_peak
+    r = rows[rows["result"].str.startswith("Pearson")]
+    assert r["paper"].tolist() == [PAPER_PEARSON_R["r_f_x"], PAPER_PEARSON_R["r_f_z"]]
+    assert r["ours"].tolist() == [0.98, 0.93]
+
+
+def _success() -> pd.DataFrame:
+    return pd.DataFrame(
+        {
+            "method": ["bilevel/deepest_explored", "one_level", "one_level"],
+            "dimension": ["all", "all", "planner.seed"],
+            "level": ["all", "all", "0"],
+            "runs": [10, 10, 2],
+            "deploy_success_rate": [0.9, 0.2, 0.0],
+            "deploy_ci_low": [0.6, 0.05, 0.0],
+            "deploy_ci_high": [0.98, 0.5, 0.8],
+            "median_goal_iteration": [6.0, np.nan, np.nan],
+        }
+    )
+
+
+def test_planning_rows_are_the_overall_rows_with_the_papers_claim():
+    rows = planning_rows(_success())
+    assert rows["method"].tolist() == ["bilevel/deepest_explored", "one_level"]
+    assert rows["paper"].tolist()[0].startswith("100 %")
+    assert rows["deployment_success"].tolist() == [0.9, 0.2]
+
+
+def test_summary_names_the_code_version_and_links_the_tables():
+    text = summary_markdown(_comparison(), _success(), "abc123", {"success": "planning/s.md"})
+    assert "`abc123`" in text
+    assert "- [success](planning/s.md)" in text
+    assert text.index("Would the learned policy insert") < text.index("Whitney")

@@ -1,0 +1,18 @@
+"""results/summary.md: the paper's headline numbers beside ours."""
+
+import pandas as pd
+
+from pih.summary import summary_markdown
+from pih.traces import read_provenance, write_text
+from pih.workflow import logged
+
+with logged(snakemake.log[0]):
+    success = pd.read_parquet(snakemake.input.success)
+    text = summary_markdown(
+        pd.read_parquet(snakemake.input.comparison),
+        success,
+        read_provenance(snakemake.input.success)["code_version"],
+        dict(snakemake.params.links),
+    )
+    write_text(snakemake.output.summary, text)
+    print(text)
