@@ -3,7 +3,13 @@
 import numpy as np
 import pandas as pd
 
-from pih.summary import PAPER_PEARSON_R, planning_rows, summary_markdown, validation_rows
+from pih.summary import (
+    PAPER_PEARSON_R,
+    pearson_table,
+    planning_rows,
+    relative_error_table,
+    summary_markdown,
+)
 
 
 def _comparison() -> pd.DataFrame:
@@ -44,13 +50,17 @@ def _comparison() -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def test_validation_rows_put_the_papers_table_beside_ours_for_hydroelastic_chamfer_start():
-    rows = validation_rows(_comparison())
-    initial_fx = rows[rows["result"].str.contains("initial F_x")]
-    assert initial_fx["offset_mm"].tolist() == [0.5, 2.0]
-    assert initial_fx["paper"].tolist() == [10.7575, 2.9370]
-    assert initial_fx["ours"].tolist() == [1.5, 3.0]  # the chamfer_start rows, not first_peak
-    r = rows[rows["result"].str.startswith("Pearson")]
+def test_validation_tables_put_the_papers_numbers_beside_ours_for_hydroelastic_chamfer_start():
+    errors = relative_error_table(_comparison()).set_index("relative error (%)")
+    assert list(errors.columns) == [
+        "ε0 0.5 mm: paper",
+        "ε0 0.5 mm: ours",
+        "ε0 2 mm: paper",
+        "ε0 2 mm: ours",
+    ]
+    assert errors.loc["initial F_x"].tolist() == [10.7575, 1.5, 2.9370, 3.0]  # not first_peak
+    assert errors.loc["final θ", "ε0 2 mm: paper"] == 14.3666
+    r = pearson_table(_comparison())
     assert r["paper"].tolist() == [PAPER_PEARSON_R["r_f_x"], PAPER_PEARSON_R["r_f_z"]]
     assert r["ours"].tolist() == [0.98, 0.93]
 
