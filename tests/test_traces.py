@@ -4,13 +4,26 @@ import dataclasses
 import json
 
 import numpy as np
+import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
 from pih import provenance
 from pih.__main__ import main
+from pih.provenance import file_sha256, input_sha256
 from pih.scene import RobotTrajectory
-from pih.traces import TRACE_COLUMNS, read_provenance, read_trace, read_units, write_trace
+from pih.traces import (
+    TRACE_COLUMNS,
+    provenance_index,
+    read_provenance,
+    read_trace,
+    read_units,
+    write_table,
+    write_text,
+    write_trace,
+)
+
+RECORD = provenance.record("job", config={"a": 1})
 
 
 @pytest.fixture(scope="module")
@@ -68,3 +81,30 @@ def test_provenance_cli_reports_missing_record(tmp_path, capsys):
     pd.DataFrame({"a": [1]}).to_parquet(path)
     assert main(["provenance", str(path)]) == 1
     assert "no pih.provenance record" in capsys.readouterr().err
+
+
+def test_input_hash_covers_the_data_not_the_provenance(tmp_path):
+    frame = pd.DataFrame({"x_m": [0.0, 1.0]})
+    columns = {"x_m": ("m", "position")}
+    first, second, other = (tmp_path / f"{n}.parquet" for n in ("a", "b", "c"))
+    write_table(frame, first, {"run_id": "a", "created_utc": "2026-01-01"}, columns)
+    write_table(frame, second, {"run_id": "a", "created_utc": "2026-02-02"}, columns)
+    write_table(frame.assign(x_m=[0.0, 2.0]), other, {"run_id": "a"}, columns)
+    assert file_sha256(first) != file_sha256(second)
+    assert input_sha256(first) == input_sha256(second)
+    assert input_sha256(first) != input_sha256(other)
+
+
+def test_every_kind_of_output_is_listed_with_a_record(tmp_path):
+    table = tmp_path / "t.parquet"
+    write_table(pd.DataFrame({"x_m": [0.0]}), table, RECORD, {"x_m": ("m", "x")})
+    markdown = tmp_path / "t.md"
+    write_text(markdown, "| a |\n|---|\n| 1 |", RECORD)
+    csv = tmp_path / "t.csv"
+    write_text(csv, "a\n1\n")
+    index = provenance_index([table, markdown, csv], {str(csv): str(table)})
+    assert index["run_id"].tolist() == ["job", "job", "job"]
+    assert index["record_in"].tolist() == ["itself", "itself", str(table)]
+    assert markdown.read_text().startswith("| a |")  # the record is a closing comment
+    with pytest.raises(ValueError, match="only markdown"):
+        write_text(csv, "a\n", RECORD)

@@ -13,7 +13,7 @@ import json
 import sys
 from pathlib import Path
 
-from pih.traces import read_provenance
+from pih.traces import read_output_provenance, read_provenance
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
     status = 0
     for path in args.files:
         try:
-            record = _provenance(path)
+            record = read_output_provenance(path)
         except Exception as error:  # noqa: BLE001 - any unreadable file: say which, go on
             first = str(error).splitlines()[0] if str(error) else type(error).__name__
             print(f"{path}: not a pih output with provenance ({first})", file=sys.stderr)
@@ -104,14 +104,6 @@ def _plot(run: Path) -> int:
     plots.save(plots.run_figure(rollouts, paths, scene.hole, run.name), target, provenance=record)
     print(target)
     return 0
-
-
-def _provenance(path: Path) -> dict:
-    if path.suffix == ".rrd":
-        from pih.recordings import read_recording_provenance
-
-        return read_recording_provenance(path)
-    return read_provenance(path)
 
 
 if __name__ == "__main__":

@@ -50,6 +50,23 @@ def file_sha256(path: str | Path) -> str:
     return digest.hexdigest()
 
 
+def input_sha256(path: str | Path) -> str:
+    """sha256 of an input's data: a Parquet file's table without its schema metadata (which
+    holds the provenance, with its creation time), any other file's bytes. Re-running an
+    upstream job with the same data therefore leaves a downstream record unchanged."""
+    if Path(path).suffix != ".parquet":
+        return file_sha256(path)
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    table = table.replace_schema_metadata(None)
+    sink = pa.BufferOutputStream()
+    with pa.ipc.new_stream(sink, table.schema) as writer:
+        writer.write_table(table)
+    return hashlib.sha256(sink.getvalue().to_pybytes()).hexdigest()
+
+
 @functools.cache
 def library_hash() -> str:
     """sha256 over the source files of the ``pih`` package (names and contents, sorted)."""
@@ -116,7 +133,7 @@ def record(
         "seeds": dict(seeds or {}),
         "config": config,
         "config_sha256": sha256_text(canonical_json(config)),
-        "inputs": {str(p): file_sha256(p) for p in inputs},
+        "inputs": {str(p): input_sha256(p) for p in inputs},
         "code_version": code_version(),
         "library_sha256": library_hash(),
         "packages": package_versions(),

@@ -21,7 +21,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from pih.provenance import PROVENANCE_KEY, canonical_json
+from pih.provenance import PROVENANCE_KEY, canonical_json, stable
 from pih.scene import Trace
 
 Column = tuple[str, str]  # (unit, description)
@@ -164,22 +164,54 @@ def read_metadata(path: str | Path, key: str) -> Any:
     return json.loads((pq.read_schema(path).metadata or {})[f"pih.{key}".encode()])
 
 
-def provenance_index(paths: list[str | Path]) -> pd.DataFrame:
-    """One row per output file: its run id, seeds, config and library hashes, code version,
-    Drake version and creation time."""
+def read_output_provenance(path: str | Path) -> dict[str, Any]:
+    """The provenance record an output carries: Parquet schema metadata, a recording's property,
+    a PNG text chunk or a markdown file's closing comment (the last three without time or host)."""
+    path = Path(path)
+    if path.suffix == ".rrd":
+        from pih.recordings import read_recording_provenance
+
+        return read_recording_provenance(path)
+    if path.suffix == ".png":
+        from PIL import Image
+
+        with Image.open(path) as image:
+            text = image.text.get(PROVENANCE_KEY.decode())
+    elif path.suffix == ".md":
+        last = path.read_text().rstrip().rsplit("\n", 1)[-1]
+        text = (
+            last[len(MARKDOWN_PROVENANCE) : -len(" -->")]
+            if last.startswith(MARKDOWN_PROVENANCE)
+            else None
+        )
+    else:
+        return read_provenance(path)
+    if text is None:
+        raise ValueError(f"{path}: no {PROVENANCE_KEY.decode()} record")
+    return json.loads(text)
+
+
+def provenance_index(
+    paths: list[str | Path], companions: Mapping[str, str] | None = None
+) -> pd.DataFrame:
+    """One row per output file: its run id, seeds, config and library hashes, code version and
+    Drake version, and which file carries the record (itself, or for CSV and PDF files the
+    Parquet file their job wrote with the same record, ``companions[file]``)."""
+    companions = dict(companions or {})
     rows = []
     for path in paths:
-        record = read_provenance(path)
+        carrier = companions.get(str(path), str(path))
+        record = read_output_provenance(carrier)
         rows.append(
             {
                 "file": str(path),
+                "record_in": "itself" if carrier == str(path) else carrier,
                 "run_id": record["run_id"],
                 "seeds": ", ".join(f"{k}={v}" for k, v in sorted(record["seeds"].items())),
                 "config_sha256": record["config_sha256"][:12],
                 "library_sha256": record["library_sha256"][:12],
-                "code_version": record["code_version"],
+                "code_version": record.get("code_version", ""),  # not in rerun-stable records
                 "drake": record["packages"]["drake"],
-                "created_utc": record["created_utc"],
             }
         )
     return pd.DataFrame(rows)
@@ -206,8 +238,16 @@ def read_trace(path: str | Path) -> Trace:
     return frame_trace(pd.read_parquet(path), info["status"], info["reason"])
 
 
-def write_text(path: str | Path, text: str) -> None:
-    """Atomically write a text file (markdown/CSV tables)."""
+MARKDOWN_PROVENANCE = "<!-- pih.provenance "
+
+
+def write_text(path: str | Path, text: str, provenance: Mapping[str, Any] | None = None) -> None:
+    """Atomically write a text file (markdown/CSV tables). A markdown file given a provenance
+    record ends with it (without time or host) in an HTML comment, invisible when rendered."""
+    if provenance is not None:
+        if Path(path).suffix != ".md":
+            raise ValueError(f"{path}: only markdown files carry a provenance comment")
+        text = f"{text.rstrip()}\n\n{MARKDOWN_PROVENANCE}{canonical_json(stable(provenance))} -->\n"
     with atomic_path(path) as tmp:
         tmp.write_text(text)
 

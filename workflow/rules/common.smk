@@ -51,3 +51,9 @@ FIGURE_POINTS = [
 wildcard_constraints:
     offset=r"[0-9.e+-]+",
     model=r"[a-z_]+",
+
+
+def record_companions(outputs, carrier):
+    """A job's CSV and PDF outputs carry no record of their own: they share the job's record
+    with its Parquet file ``carrier`` (for provenance.md)."""
+    return {str(f): str(carrier) for f in outputs if str(f).endswith((".csv", ".pdf"))}

@@ -1,43 +1,3 @@
-rule provenance_index:
-    input:
-        rules.validation_compare.output.table,
-        rules.validation_compare.output.aligned,
-        rules.planning_aggregate.output.runs,
-        rules.planning_aggregate.output.bands,
-        rules.planning_aggregate.output.success,
-        rules.planning_aggregate.output.ablation,
-        expand("results/whitney/offset_m~{offset}.parquet", offset=VALIDATION_OFFSETS),
-        expand(
-            "results/validation/{model}/offset_m~{offset}.parquet",
-            model=CONTACT_MODELS,
-            offset=VALIDATION_OFFSETS,
-        ),
-        expand(
-            "results/planning/{point}/{table}.parquet",
-            point=PLANNING.instance_patterns,
-            table=["rollouts", "best_paths"],
-        ),
-    output:
-        index=report(
-            "results/provenance.md",
-            caption="../report/provenance.rst",
-            category="Provenance",
-        ),
-    log:
-        "logs/provenance_index.log",
-    localrule: True
-    conda:
-        "../envs/pih.yaml"
-    threads: 1
-    resources:
-        mem_mb=500,
-        runtime=5,
-    params:
-        library=LIBRARY_HASH,
-    script:
-        "../scripts/provenance_index.py"
-
-
 rule summary:
     input:
         comparison=rules.validation_compare.output.table,
@@ -67,3 +27,49 @@ rule summary:
         library=LIBRARY_HASH,
     script:
         "../scripts/summary.py"
+
+
+rule provenance_index:
+    input:
+        rules.validation_compare.output,
+        rules.planning_aggregate.output,
+        rules.summary.output,
+        expand("results/whitney/offset_m~{offset}.parquet", offset=VALIDATION_OFFSETS),
+        expand(
+            "results/validation/{model}/offset_m~{offset}.{ext}",
+            model=CONTACT_MODELS,
+            offset=VALIDATION_OFFSETS,
+            ext=["parquet", "rrd"],
+        ),
+        expand(
+            "results/planning/{point}/{file}",
+            point=PLANNING.instance_patterns,
+            file=["rollouts.parquet", "best_paths.parquet", "run.rrd"],
+        ),
+    output:
+        index=report(
+            "results/provenance.md",
+            caption="../report/provenance.rst",
+            category="Provenance",
+        ),
+    log:
+        "logs/provenance_index.log",
+    localrule: True
+    conda:
+        "../envs/pih.yaml"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    params:
+        companions={
+            **record_companions(
+                rules.validation_compare.output, rules.validation_compare.output.table
+            ),
+            **record_companions(
+                rules.planning_aggregate.output, rules.planning_aggregate.output.runs
+            ),
+        },
+        library=LIBRARY_HASH,
+    script:
+        "../scripts/provenance_index.py"

@@ -34,9 +34,9 @@ with logged(snakemake.log[0]):
     write_table(bands, snakemake.output.bands, record, BAND_COLUMNS)
     write_table(success, snakemake.output.success, record, SUCCESS_COLUMNS)
     write_table(ablation, snakemake.output.ablation, record, SUCCESS_COLUMNS)
-    write_text(snakemake.output.success_markdown, markdown_table(success))
+    write_text(snakemake.output.success_markdown, markdown_table(success), record)
     write_text(snakemake.output.success_csv, success.to_csv(index=False))
-    write_text(snakemake.output.ablation_markdown, markdown_table(ablation))
+    write_text(snakemake.output.ablation_markdown, markdown_table(ablation), record)
     overall = bands[bands["dimension"] == "all"]
     plots.save(
         plots.cost_band_figure(overall),

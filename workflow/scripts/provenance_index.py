@@ -2,9 +2,13 @@
 
 from pih.study import markdown_table
 from pih.traces import provenance_index, write_text
-from pih.workflow import logged
+from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
-    table = provenance_index(list(snakemake.input))
-    write_text(snakemake.output.index, "# Provenance of the outputs\n\n" + markdown_table(table))
+    table = provenance_index(list(snakemake.input), snakemake.params.companions)
+    write_text(
+        snakemake.output.index,
+        "# Provenance of the outputs\n\n" + markdown_table(table),
+        job_provenance(snakemake, "provenance_index"),
+    )
     print(f"{len(table)} files indexed")

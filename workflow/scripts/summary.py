@@ -4,7 +4,7 @@ import pandas as pd
 
 from pih.summary import summary_markdown
 from pih.traces import read_provenance, write_text
-from pih.workflow import logged
+from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
     success = pd.read_parquet(snakemake.input.success)
@@ -14,5 +14,5 @@ with logged(snakemake.log[0]):
         read_provenance(snakemake.input.success)["code_version"],
         dict(snakemake.params.links),
     )
-    write_text(snakemake.output.summary, text)
+    write_text(snakemake.output.summary, text, job_provenance(snakemake, "summary"))
     print(text)

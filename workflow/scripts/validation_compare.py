@@ -37,7 +37,7 @@ with logged(snakemake.log[0]):
     )
     write_table(table, snakemake.output.table, record, COMPARISON_COLUMNS)
     write_table(aligned_curves(comparisons), snakemake.output.aligned, record, ALIGNED_COLUMNS)
-    write_text(snakemake.output.markdown, markdown_table(table.drop(columns=["note"])))
+    write_text(snakemake.output.markdown, markdown_table(table.drop(columns=["note"])), record)
     write_text(snakemake.output.csv, table.to_csv(index=False))
     simulated = {key: c.simulated for key, c in comparisons.items()}
     pdfs = iter(snakemake.output.pdfs)
