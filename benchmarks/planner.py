@@ -12,7 +12,7 @@ import argparse
 import time
 
 from pih.planner import OuterConfig, Planner, PlannerConfig, replace
-from pih.scene import SceneConfig
+from pih.scene_config import SceneConfig
 
 
 def main() -> None:

@@ -17,7 +17,8 @@ import time
 
 import numpy as np
 
-from pih.scene import PegInHoleScene, RobotTrajectory, SceneConfig
+from pih.scene import PegInHoleScene, RobotTrajectory
+from pih.scene_config import SceneConfig
 
 
 def planning_rollout(scene: PegInHoleScene, duration_s: float = 3.5) -> RobotTrajectory:

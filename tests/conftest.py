@@ -6,7 +6,8 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 import pytest
 
-from pih.scene import PegInHoleScene, SceneConfig
+from pih.scene import PegInHoleScene
+from pih.scene_config import SceneConfig
 
 
 @pytest.fixture(scope="session")

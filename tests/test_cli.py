@@ -4,8 +4,8 @@ import pandas as pd
 import pytest
 
 from pih.__main__ import main
+from pih.outputs import write_table
 from pih.provenance import record
-from pih.traces import write_table
 
 
 @pytest.fixture
@@ -52,7 +52,7 @@ def test_plot_draws_one_planning_run(tmp_path, capsys):
     from pih.dmp import DmpConfig
     from pih.optimizers import OptimizerConfig
     from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS, Planner, PlannerConfig, replace
-    from pih.scene import SceneConfig
+    from pih.scene_config import SceneConfig
 
     config = replace(
         PlannerConfig(),

@@ -25,8 +25,8 @@ from pih.planner import (
     replace,
     run_seeds,
 )
-from pih.scene import SceneConfig
-from pih.study import seed_key
+from pih.scene_config import SceneConfig
+from pih.study_config import seed_key
 
 SENSING = SensingConfig(hole_std=(0.005, 0.001, 0.02))
 
@@ -181,7 +181,7 @@ def test_bad_planner_config_is_rejected_before_simulation(edit, message):
 def test_the_study_config_and_the_python_defaults_are_the_same_table_4_values():
     import yaml
 
-    from pih.study import resolve
+    from pih.study_config import resolve
 
     study = yaml.safe_load((Path(__file__).parents[1] / "config" / "config.yaml").read_text())
     scene, planner = resolve(study)

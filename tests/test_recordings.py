@@ -6,7 +6,8 @@ import pytest
 from rerun.chunk import RrdReader
 
 from pih.recordings import SCENE, record_insertion, record_planning
-from pih.scene import SceneConfig, Trace
+from pih.scene import Trace
+from pih.scene_config import SceneConfig
 
 
 def _chunks(path) -> dict[str, list]:

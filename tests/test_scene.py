@@ -5,7 +5,8 @@ import pytest
 
 from pih.config import ConfigError, from_mapping, to_mapping
 from pih.frames import offset_along_axis, pose_matrix, pose_vector
-from pih.scene import PegInHoleScene, RobotTrajectory, SceneConfig, TrajectoryError, wall_profile
+from pih.scene import PegInHoleScene, RobotTrajectory, TrajectoryError
+from pih.scene_config import SceneConfig, wall_profile
 
 
 def straight_line(start, stop, duration_s=1.5, hold_s=0.5, step_s=0.002) -> RobotTrajectory:

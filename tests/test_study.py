@@ -5,19 +5,11 @@ import math
 import pandas as pd
 import pytest
 
+from pih.aggregate import cost_bands, final_success_fraction, success_table, wilson_interval
 from pih.config import ConfigError, to_mapping
 from pih.planner import PlannerConfig
-from pih.scene import SceneConfig
-from pih.study import (
-    cost_bands,
-    final_success_fraction,
-    override,
-    resolve,
-    seed_key,
-    success_table,
-    sweep_points,
-    wilson_interval,
-)
+from pih.scene_config import SceneConfig
+from pih.study_config import override, resolve, seed_key, sweep_points
 
 
 def base_config() -> dict:

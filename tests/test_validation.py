@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from pih import whitney
-from pih.scene import SceneConfig, Trace
+from pih.scene import Trace
+from pih.scene_config import SceneConfig
 from pih.validation import (
     ValidationConfig,
     compare,

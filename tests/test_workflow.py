@@ -20,9 +20,9 @@ import pandas as pd
 import pytest
 import yaml
 
+from pih.outputs import read_output_provenance, read_provenance
 from pih.provenance import stable
-from pih.traces import read_output_provenance, read_provenance
-from pih.workflow import config_schema
+from pih.study_config import config_schema
 
 ROOT = Path(__file__).resolve().parents[1]
 SMOKE = yaml.safe_load((ROOT / "config" / "smoke.yaml").read_text())
@@ -303,3 +303,37 @@ def test_killed_run_resumes_without_corrupt_outputs(tmp_path):
         read_provenance(path)
     redone = [p for p, t in finished_before.items() if p.stat().st_mtime_ns != t]
     assert not redone, f"finished jobs were redone: {redone}"
+
+
+@pytest.mark.slow
+def test_a_workflow_script_runs_outside_snakemake_for_debugging(tmp_path):
+    """`pih job TARGET` builds the job's snakemake object from the Snakefile and config and runs
+    its script in-process: the output's data equal what the workflow made."""
+    workdir = copy_workflow(tmp_path)
+    target = "results/whitney/offset_m~0.001.parquet"
+    snakemake(workdir, target)
+    made = pd.read_parquet(workdir / target)
+    (workdir / target).unlink()
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    run = subprocess.run(
+        ["python", "-m", "pih", "job", target],
+        cwd=workdir,
+        capture_output=True,
+        text=True,
+        env=env,
+        check=False,
+    )
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert "whitney_curve.py" in run.stdout
+    pd.testing.assert_frame_equal(pd.read_parquet(workdir / target), made)
+    assert read_provenance(workdir / target)["step"] == "whitney_curve"
+    missing = subprocess.run(
+        ["python", "-m", "pih", "job", "results/no_such_output.parquet"],
+        cwd=workdir,
+        capture_output=True,
+        text=True,
+        env=env,
+        check=False,
+    )
+    assert missing.returncode == 1
+    assert "no rule with a script makes this file" in missing.stderr

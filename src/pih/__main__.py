@@ -3,7 +3,9 @@
 - ``pih show FILE``: a Parquet output's columns with units, row count and provenance summary;
 - ``pih provenance FILE... [--key K]``: the full provenance record (Parquet or recording);
 - ``pih plot RUN_DIR``: one planning run's cost curve and best paths, as ``RUN_DIR/run.png``;
-- ``pih schema``: the JSON schema of the study's config.
+- ``pih schema``: the JSON schema of the study's config;
+- ``pih job TARGET [--configfile F ...]``: run the workflow script that makes ``TARGET`` in this
+  process, outside Snakemake, for debugging (``python -m pdb -m pih job TARGET``).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import json
 import sys
 from pathlib import Path
 
-from pih.traces import read_output_provenance, read_provenance
+from pih.outputs import read_output_provenance, read_provenance
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -27,13 +29,20 @@ def main(argv: list[str] | None = None) -> int:
     look.add_argument("file", type=Path)
     plot = commands.add_parser("plot", help="cost curve and best paths of one planning run")
     plot.add_argument("run", type=Path, help="a results/planning/<sweep point>/ directory")
+    job = commands.add_parser("job", help="run the workflow script that makes TARGET, here")
+    job.add_argument(
+        "target", help="an output path, e.g. results/validation/point/offset_m~0.001.parquet"
+    )
+    job.add_argument("--configfile", nargs="+", help="config files (default config/config.yaml)")
     args = parser.parse_args(argv)
+    if args.command == "job":
+        return _job(args.target, args.configfile)
     if args.command == "show":
         return _show(args.file)
     if args.command == "plot":
         return _plot(args.run)
     if args.command == "schema":
-        from pih.workflow import config_schema
+        from pih.study_config import config_schema
 
         print(json.dumps(config_schema(), indent=2))
         return 0
@@ -89,7 +98,7 @@ def _plot(run: Path) -> int:
 
     from pih import plots
     from pih.config import from_mapping
-    from pih.scene import SceneConfig
+    from pih.scene_config import SceneConfig
 
     try:
         rollouts = pd.read_parquet(run / "rollouts.parquet")
@@ -103,6 +112,22 @@ def _plot(run: Path) -> int:
     target = run / "run.png"
     plots.save(plots.run_figure(rollouts, paths, scene.hole, run.name), target, provenance=record)
     print(target)
+    return 0
+
+
+def _job(target: str, configfiles: list[str] | None) -> int:
+    """Run the rule's script with the ``snakemake`` object Snakemake would give it."""
+    import runpy
+
+    from pih.workflow import mock_snakemake
+
+    try:
+        smk, script = mock_snakemake(target, configfiles)
+    except ValueError as error:
+        print(f"pih job: {error}", file=sys.stderr)
+        return 1
+    print(f"pih job: {script.name} for {target} (log: {smk.log[0] if smk.log else 'none'})")
+    runpy.run_path(str(script), init_globals={"snakemake": smk}, run_name="__main__")
     return 0
 
 

@@ -39,7 +39,8 @@ from pih.config import ConfigError, require, require_finite, require_positive
 from pih.dmp import Dmp, DmpConfig
 from pih.frames import spring_energy
 from pih.optimizers import OptimizerConfig, make_optimizer
-from pih.scene import PegInHoleScene, RobotTrajectory, SceneConfig, Trace
+from pih.scene import PegInHoleScene, RobotTrajectory, Trace
+from pih.scene_config import SceneConfig
 
 Method = Literal["one_level", "bilevel"]
 METHODS: tuple[str, ...] = ("one_level", "bilevel")

@@ -13,10 +13,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from pih.outputs import write_with
 from pih.provenance import canonical_json, stable
-from pih.recordings import hole_outline
-from pih.scene import HoleConfig
-from pih.traces import write_with
+from pih.scene_config import HoleConfig, hole_outline
 
 QUANTITIES = {
     "f_x_n": ("$F_x$ (N)", "Insertion force $F_x$ vs depth (paper Fig. 4)"),

@@ -20,9 +20,10 @@ import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
 from pih.frames import offset_along_axis
+from pih.outputs import write_with
 from pih.provenance import canonical_json
-from pih.scene import HoleConfig, SceneConfig, Trace, wall_profile
-from pih.traces import write_with
+from pih.scene import Trace
+from pih.scene_config import SceneConfig, hole_outline
 from pih.validation import error_side
 
 APPLICATION_ID = "pih"
@@ -50,13 +51,6 @@ SERIES = {
     "spring_f_x": ("spring F_x (N)", (230, 80, 40)),
     "spring_f_z": ("spring F_z (N)", (240, 180, 60)),
 }
-
-
-def hole_outline(hole: HoleConfig) -> list[NDArray[np.float64]]:
-    """World (x, y) outlines of the two walls: the right wall profile and its mirror."""
-    right = wall_profile(hole) + [hole.x_m, hole.y_m]
-    left = right * [-1.0, 1.0] + [2.0 * hole.x_m, 0.0]
-    return [np.vstack([w, w[:1]]) for w in (right, left)]
 
 
 def peg_outline(

@@ -11,7 +11,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from pih.study import markdown_table
+from pih.aggregate import markdown_table
 
 # Paper Table 2: relative error (%) of the hydroelastic model against Whitney, per offset ε0 (m).
 PAPER_RELATIVE_ERROR_PCT: dict[str, dict[float, float]] = {

@@ -20,7 +20,8 @@ import pandas as pd
 
 from pih import whitney
 from pih.config import require, require_positive
-from pih.scene import PegInHoleScene, RobotTrajectory, SceneConfig, Trace
+from pih.scene import PegInHoleScene, RobotTrajectory, Trace
+from pih.scene_config import SceneConfig
 
 ENTRANCE_SIDE_M = 1e-9
 

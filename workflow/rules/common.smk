@@ -2,8 +2,8 @@ import pandas as pd
 from snakemake.utils import Paramspace, validate
 
 from pih.provenance import library_hash
-from pih.study import sweep_points
-from pih.workflow import check_study, read_config_files
+from pih.study_config import sweep_points
+from pih.study_config import check_study, read_config_files
 
 # No repeated YAML keys; a --configfile defines its own sweep (not merged onto the default's).
 read_config_files(config, workflow.configfiles, workflow.overwrite_configfiles or [])

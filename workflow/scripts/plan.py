@@ -1,10 +1,10 @@
 """One planning run (paper Algorithm 1) at one sweep point, then its deployment trials."""
 
 from pih.config import to_mapping
+from pih.outputs import write_table
 from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS, Planner
 from pih.recordings import record_planning
-from pih.study import resolve, seed_key
-from pih.traces import write_table
+from pih.study_config import resolve, seed_key
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):

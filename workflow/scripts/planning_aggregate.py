@@ -5,9 +5,7 @@ from pathlib import Path
 import pandas as pd
 
 from pih import plots
-from pih.config import from_mapping
-from pih.scene import SceneConfig
-from pih.study import (
+from pih.aggregate import (
     BAND_COLUMNS,
     BEST_COST_COLUMNS,
     SUCCESS_COLUMNS,
@@ -18,7 +16,9 @@ from pih.study import (
     run_title,
     success_table,
 )
-from pih.traces import read_provenance, write_table, write_text
+from pih.config import from_mapping
+from pih.outputs import read_provenance, write_table, write_text
+from pih.scene_config import SceneConfig
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):

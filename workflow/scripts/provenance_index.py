@@ -1,7 +1,7 @@
 """A table of the provenance records of all outputs, for the report."""
 
-from pih.study import markdown_table
-from pih.traces import provenance_index, write_text
+from pih.aggregate import markdown_table
+from pih.outputs import provenance_index, write_text
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):

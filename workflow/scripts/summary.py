@@ -2,8 +2,8 @@
 
 import pandas as pd
 
+from pih.outputs import read_provenance, write_text
 from pih.summary import summary_markdown
-from pih.traces import read_provenance, write_text
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):

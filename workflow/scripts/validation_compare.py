@@ -3,10 +3,11 @@
 import pandas as pd
 
 from pih import plots
+from pih.aggregate import markdown_table
 from pih.config import from_mapping
-from pih.scene import SceneConfig
-from pih.study import markdown_table
-from pih.traces import read_provenance, read_trace, write_table, write_text
+from pih.outputs import read_provenance, read_trace, write_table, write_text
+from pih.scene_config import SceneConfig
+from pih.study_config import ValidationSection
 from pih.validation import (
     ALIGNED_COLUMNS,
     COMPARISON_COLUMNS,
@@ -15,7 +16,7 @@ from pih.validation import (
     phase_markers,
     whitney_params,
 )
-from pih.workflow import ValidationSection, job_provenance, logged
+from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
     section = from_mapping(ValidationSection, snakemake.params.validation, "validation")

@@ -1,11 +1,12 @@
 """Quasi-static straight-down insertion in Drake at one offset and contact model (paper §2.4)."""
 
 from pih.config import from_mapping, to_mapping
+from pih.outputs import write_trace
 from pih.recordings import record_insertion
 from pih.scene import PegInHoleScene
-from pih.traces import write_trace
+from pih.study_config import ValidationSection
 from pih.validation import run_insertion
-from pih.workflow import ValidationSection, job_provenance, logged
+from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
     section = from_mapping(ValidationSection, snakemake.params.validation, "validation")

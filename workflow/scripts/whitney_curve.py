@@ -2,8 +2,8 @@
 
 from pih import whitney
 from pih.config import from_mapping
-from pih.scene import SceneConfig
-from pih.traces import write_table
+from pih.outputs import write_table
+from pih.scene_config import SceneConfig
 from pih.validation import whitney_params
 from pih.workflow import job_provenance, logged
 

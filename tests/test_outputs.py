@@ -10,9 +10,7 @@ import pytest
 
 from pih import provenance
 from pih.__main__ import main
-from pih.provenance import file_sha256, input_sha256
-from pih.scene import RobotTrajectory
-from pih.traces import (
+from pih.outputs import (
     TRACE_COLUMNS,
     provenance_index,
     read_provenance,
@@ -22,6 +20,8 @@ from pih.traces import (
     write_text,
     write_trace,
 )
+from pih.provenance import file_sha256, input_sha256
+from pih.scene import RobotTrajectory
 
 RECORD = provenance.record("job", config={"a": 1})
 

@@ -1,15 +1,10 @@
-"""The batch study: configuration sections, sweep points, and aggregates over planning runs.
-
-The workflow's config has sections ``scene`` (:class:`pih.scene.SceneConfig`), ``validation``
-and ``planner`` (:class:`pih.planner.PlannerConfig`) and a ``sweep`` whose keys are dotted config
-paths (``planner.start_x_m``) and whose values are lists of levels. A sweep point overrides those
-paths; :func:`resolve` applies it and validates the result strictly.
+"""Aggregates over planning runs: per-run summaries, the cost bands (Fig. 9), deployment success
+with intervals over independent runs, and the Markdown tables. docs/planner.md explains the
+statistics.
 """
 
 from __future__ import annotations
 
-import copy
-import itertools
 import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -18,122 +13,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pih.config import ConfigError, from_mapping
-from pih.planner import PlannerConfig
-from pih.provenance import canonical_json
-from pih.scene import SceneConfig
-from pih.traces import read_provenance
-
-METHOD_KEY = "planner.method"
-OUTER_PREFIX = "planner.outer."
-"""Sweep keys under this prefix configure bilevel's outer level; one-level runs ignore them."""
-
-
-VARIANT_KEY = "variant"
-"""Sweep key whose levels name entries of the config's ``variants`` (one-at-a-time ablations)."""
-
-
-def is_method_key(path: str) -> bool:
-    """Whether a sweep key selects the method (the method, its outer level, or a named variant)
-    rather than the situation (start, seed, noise, scene): runs differing only in such keys
-    share their random draws (common random numbers), so their comparison is paired."""
-    return path in (METHOD_KEY, VARIANT_KEY) or path.startswith(OUTER_PREFIX)
-
-
-def seed_key(point: Mapping[str, Any]) -> str:
-    """Stable encoding of a sweep point's non-method levels: the per-run seed is derived from it
-    (:func:`pih.planner.run_seeds`), so every other difference gives independent draws."""
-    return canonical_json({k: _plain(v) for k, v in point.items() if not is_method_key(k)})
-
-
-def sweep_points(
-    sweep: Mapping[str, list[Any]], variants: Mapping[str, Mapping[str, Any]] | None = None
-) -> list[dict[str, Any]]:
-    """The planning runs of a sweep: the Cartesian product of its levels, except that one-level
-    runs that differ only in settings of bilevel's outer level (``planner.outer.*`` keys, or
-    variants that change only those) are made once. Duplicate levels, unknown variants and keys
-    whose directory names would collide are errors."""
-    variants = variants or {}
-    for path, levels in sweep.items():
-        plain = [canonical_json(_plain(v)) for v in levels]
-        repeated = sorted({v for v in plain if plain.count(v) > 1})
-        if repeated:
-            raise ConfigError(
-                f"sweep.{path}: repeated level(s) {repeated}; each run must be unique"
-            )
-    names: dict[str, str] = {}
-    for path in sweep:
-        name = path.rsplit(".", 1)[-1]
-        if name in names:
-            raise ConfigError(
-                f"sweep: keys {names[name]!r} and {path!r} both end in {name!r}, which names "
-                "their level in run directories, so the directories would collide; sweep only one"
-            )
-        names[name] = path
-    unknown = [v for v in sweep.get(VARIANT_KEY, []) if v not in variants]
-    if unknown:
-        raise ConfigError(
-            f"sweep.{VARIANT_KEY}: {unknown} are not defined under variants ({sorted(variants)})"
-        )
-    points, one_level_seen = [], set()
-    for levels in itertools.product(*sweep.values()):
-        point = dict(zip(sweep, (_plain(v) for v in levels)))
-        if point.get(METHOD_KEY) == "one_level":
-            settings = {**variants.get(point.get(VARIANT_KEY), {}), **point}
-            key = canonical_json(
-                {
-                    k: v
-                    for k, v in settings.items()
-                    if k != VARIANT_KEY and not k.startswith(OUTER_PREFIX)
-                }
-            )
-            if key in one_level_seen:
-                continue
-            one_level_seen.add(key)
-        points.append(point)
-    return points
-
-
-def _plain(value: Any) -> Any:
-    return value.item() if isinstance(value, np.generic) else value
-
-
-def override(config: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, Any]:
-    """Deep copy of ``config`` with each dotted path of ``point`` set to its value; a
-    ``variant`` level applies that entry of ``config["variants"]`` first."""
-    out = copy.deepcopy(dict(config))
-    point = dict(point)
-    if VARIANT_KEY in point:
-        name = _plain(point.pop(VARIANT_KEY))
-        variants = config.get("variants") or {}
-        if name not in variants:
-            raise ConfigError(
-                f"variant {name!r} is not defined under variants ({sorted(variants)})"
-            )
-        point = {**variants[name], **point}
-    for path, value in point.items():
-        node = out
-        *parents, leaf = path.split(".")
-        for key in parents:
-            if not isinstance(node.get(key), dict):
-                raise ConfigError(f"sweep key {path!r}: {key!r} is not a config section")
-            node = node[key]
-        if leaf not in node:
-            raise ConfigError(
-                f"sweep key {path!r}: no such config key {leaf!r}; allowed: {sorted(node)}"
-            )
-        node[leaf] = _plain(value)  # Paramspace gives numpy scalars
-    return out
-
-
-def resolve(
-    config: Mapping[str, Any], point: Mapping[str, Any] | None = None
-) -> tuple[SceneConfig, PlannerConfig]:
-    """Validated scene and planner configs of one sweep point."""
-    data = override(config, point or {})
-    return from_mapping(SceneConfig, data["scene"], "scene"), from_mapping(
-        PlannerConfig, data["planner"], "planner"
-    )
+from pih.outputs import read_provenance
+from pih.study_config import METHOD_KEY, OUTER_PREFIX, is_method_key, plain
 
 
 def wilson_interval(successes: float, trials: int, z: float = 1.96) -> tuple[float, float]:
@@ -165,7 +46,7 @@ def variant(planner: Mapping[str, Any]) -> str:
 def run_title(point: Mapping[str, Any], planner: Mapping[str, Any]) -> str:
     """A run for a figure title: its method, then its other sweep levels (``start_x_m = -0.035``)."""
     levels = [
-        f"{key.rsplit('.', 1)[-1]} = {_plain(value)}"
+        f"{key.rsplit('.', 1)[-1]} = {plain(value)}"
         for key, value in point.items()
         if not is_method_key(key)
     ]
