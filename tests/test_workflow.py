@@ -127,7 +127,7 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
     ("edit", "message"),
     [
         (lambda c: c["scene"]["material"].update(friction=-0.1), "scene.material.friction"),
-        (lambda c: c["planner"]["optimizer"].update(name="simplex"), "name must be one of"),
+        (lambda c: c["planner"]["optimizer"].update(name="simplex"), "planner.optimizer.name"),
         (lambda c: c["planner"].update(iterations=0), "planner.iterations"),
         (
             lambda c: c["planner"]["sensing"].update(hole_std=[0.005, 0.0, 0.1]),

@@ -37,6 +37,8 @@ from numbers import Integral
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pih.config import require, require_positive
+
 N_DOF = 3
 MAX_STEP_S = 1e-3
 """Upper bound on the internal integration step of the unit responses."""
@@ -58,20 +60,22 @@ class DmpConfig:
         amplitude = tuple(np.atleast_1d(self.min_amplitude).tolist())
         object.__setattr__(self, "min_amplitude", amplitude)
 
-    def validate(self) -> None:
-        """Raise ValueError naming the first field outside its allowed range."""
-        if not isinstance(self.n_basis, Integral) or self.n_basis < 1:
-            raise ValueError(f"n_basis must be an integer >= 1, got {self.n_basis!r}")
-        for field in ("alpha", "beta", "alpha_s", "duration_s"):
-            value = getattr(self, field)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{field} must be a finite number > 0, got {value!r}")
+    def validate(self, prefix: str = "") -> None:
+        """Raise :class:`~pih.config.ConfigError` naming the first key outside its range."""
+        require(
+            isinstance(self.n_basis, Integral) and self.n_basis >= 1,
+            prefix + "n_basis",
+            "an integer >= 1",
+            self.n_basis,
+        )
+        require_positive(self, ("alpha", "beta", "alpha_s", "duration_s"), prefix)
         amplitude = np.asarray(self.min_amplitude, dtype=float)
-        if amplitude.shape != (N_DOF,) or not np.all(np.isfinite(amplitude) & (amplitude > 0)):
-            raise ValueError(
-                f"min_amplitude must be {N_DOF} finite numbers > 0 (m, m, rad), "
-                f"got {self.min_amplitude!r}"
-            )
+        require(
+            amplitude.shape == (N_DOF,) and bool(np.all(np.isfinite(amplitude) & (amplitude > 0))),
+            prefix + "min_amplitude",
+            f"{N_DOF} finite numbers > 0 (m, m, rad)",
+            self.min_amplitude,
+        )
 
 
 def _normalized_basis(config: DmpConfig, s: np.ndarray) -> np.ndarray:

@@ -19,6 +19,8 @@ from typing import Protocol
 import cma
 import numpy as np
 
+from pih.config import require, require_positive
+
 OPTIMIZER_NAMES = ("elite_averaging", "cma_es")
 
 
@@ -55,24 +57,37 @@ class OptimizerConfig:
     sigma_decay: float = 1.0
     seed: int = 0
 
-    def validate(self) -> None:
-        """Raise ValueError naming the first field outside its allowed values."""
-        if self.name not in OPTIMIZER_NAMES:
-            raise ValueError(f"name must be one of {OPTIMIZER_NAMES}, got {self.name!r}")
+    def validate(self, prefix: str = "") -> None:
+        """Raise :class:`~pih.config.ConfigError` naming the first key outside its range."""
+        require(
+            self.name in OPTIMIZER_NAMES, prefix + "name", f"one of {OPTIMIZER_NAMES}", self.name
+        )
         min_population = 2 if self.name == "cma_es" else 1
-        if not isinstance(self.population_size, Integral) or self.population_size < min_population:
-            raise ValueError(
-                f"population_size must be an integer >= {min_population} for {self.name}, "
-                f"got {self.population_size!r}"
-            )
-        if not 0.0 < self.elite_fraction <= 1.0:
-            raise ValueError(f"elite_fraction must be in (0, 1], got {self.elite_fraction!r}")
-        if not (math.isfinite(self.sigma) and self.sigma > 0.0):
-            raise ValueError(f"sigma must be a finite number > 0, got {self.sigma!r}")
-        if not 0.0 < self.sigma_decay <= 1.0:
-            raise ValueError(f"sigma_decay must be in (0, 1], got {self.sigma_decay!r}")
-        if not isinstance(self.seed, Integral) or self.seed < 0:
-            raise ValueError(f"seed must be an integer >= 0, got {self.seed!r}")
+        require(
+            isinstance(self.population_size, Integral) and self.population_size >= min_population,
+            prefix + "population_size",
+            f"an integer >= {min_population} for {self.name}",
+            self.population_size,
+        )
+        require(
+            0.0 < self.elite_fraction <= 1.0,
+            prefix + "elite_fraction",
+            "a fraction in (0, 1]",
+            self.elite_fraction,
+        )
+        require_positive(self, ("sigma",), prefix)
+        require(
+            0.0 < self.sigma_decay <= 1.0,
+            prefix + "sigma_decay",
+            "a factor in (0, 1]",
+            self.sigma_decay,
+        )
+        require(
+            isinstance(self.seed, Integral) and self.seed >= 0,
+            prefix + "seed",
+            "an integer >= 0",
+            self.seed,
+        )
 
     @property
     def n_elites(self) -> int:

@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from pih.config import ConfigError, require, require_finite, require_positive
+from pih.config import require, require_finite, require_positive
 from pih.dmp import Dmp, DmpConfig
 from pih.frames import spring_energy
 from pih.optimizers import OptimizerConfig, make_optimizer
@@ -210,11 +210,8 @@ class PlannerConfig:
             "a finite value > 0",
             self.convergence_tolerance,
         )
-        for section in ("dmp", "optimizer"):
-            try:
-                getattr(self, section).validate()
-            except ValueError as error:
-                raise ConfigError(f"{prefix}{section}.{error}") from None
+        self.dmp.validate(prefix + "dmp.")
+        self.optimizer.validate(prefix + "optimizer.")
         self.costs.validate(prefix + "costs.")
         self.sensing.validate(prefix + "sensing.")
         self.outer.validate(prefix + "outer.")
