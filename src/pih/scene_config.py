@@ -15,6 +15,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pih.config import require, require_finite, require_positive
+from pih.whitney import WhitneyParams
+
+PAPER = WhitneyParams()
+"""The paper's Whitney parameters (docs/whitney.md): the one source of the scene's paper values."""
 
 # --------------------------------------------------------------------------------------------
 # Configuration
@@ -23,9 +27,9 @@ from pih.config import require, require_finite, require_positive
 @dataclass(frozen=True)
 class PegConfig:
     # d of the paper's Whitney parameters (docs/whitney.md).
-    diameter_m: float = 12.672e-3
+    diameter_m: float = PAPER.peg_diameter_m
     # Whitney's L_g = 45 mm: the spring point P1 (peg top centre) is 45 mm above the tip P2.
-    length_m: float = 0.045
+    length_m: float = PAPER.compliance_length_m
     # Out-of-plane extrusion of the planar peg. Not in the paper; 10 mm keeps the peg's
     # hydroelastic patches well inside the 20 mm-thick hole walls.
     thickness_m: float = 0.010
@@ -51,15 +55,15 @@ class PegConfig:
 @dataclass(frozen=True)
 class HoleConfig:
     # D of the paper's Whitney parameters: 0.033 mm diametral clearance with the default peg.
-    diameter_m: float = 12.705e-3
+    diameter_m: float = PAPER.hole_diameter_m
     # Top surface to bottom. 10 mm puts the entrance at y = 0 with the hole frame H at
     # y_H = −0.01 m (paper Table 4).
     depth_m: float = 0.010
     # Whitney's α (docs/whitney.md).
-    chamfer_angle_deg: float = 45.0
+    chamfer_angle_deg: float = math.degrees(PAPER.chamfer_angle_rad)
     # Horizontal chamfer width W. Not given by the paper; 2.5 mm captures a 2 mm offset
     # (ε0' ≈ 1.98 mm ≤ W) even after the fillet takes ≈0.4 mm off the chamfer's lower end.
-    chamfer_width_m: float = 2.5e-3
+    chamfer_width_m: float = PAPER.chamfer_width_m
     # Round the chamfer–wall edge: a sharp rigid edge gives the chamfer normal while the peg is
     # already in one-point contact on the wall (Fz ≈ 4|Fx|, unphysical; docs/simulation.md).
     fillet_radius_m: float = 1.0e-3
@@ -126,7 +130,7 @@ class MaterialConfig:
     # Paper §2.4: 30 s/m.
     hunt_crossley_dissipation_s_per_m: float = 30.0
     # Paper Table 4 (steel on steel).
-    friction: float = 0.6
+    friction: float = PAPER.friction
     # Hydroelastic margin. Not in the paper; 200 GPa needs one (docs/simulation.md); it acts like a
     # thinner clearance (16.5 µm per side). Measured at the 1 mm validation offset: 10 µm moves
     # the start of two-point contact from 2.9 to 3.3 mm (theory 2.3 mm) and doubles the final
@@ -203,7 +207,11 @@ class SolverConfig:
 @dataclass(frozen=True)
 class SpringConfig:
     # Paper Table 4: k_x = k_y = 1000 N/m, k_θ = 1 N·m/rad.
-    stiffness: tuple[float, float, float] = (1000.0, 1000.0, 1.0)
+    stiffness: tuple[float, float, float] = (
+        PAPER.k_x_n_per_m,
+        PAPER.k_x_n_per_m,
+        PAPER.k_theta_nm_per_rad,
+    )
     # Damping as a fraction of each DoF's critical damping 2·sqrt(k·m). Not in the paper; the
     # spring is explicit (evaluated at the start of each step); full critical damping was
     # unstable above 0.83 ms while 0.3 was stable at 1–2 ms (docs/simulation.md).
