@@ -45,11 +45,12 @@ def test_trace_round_trip_with_provenance(tmp_path, trace, scene, capsys):
     path = tmp_path / "trace.parquet"
     write_trace(trace, path, record)
     back = read_trace(path)
-    arrays = [f.name for f in dataclasses.fields(trace) if f.name not in ("status", "reason")]
+    scalars = ("status", "reason", "time_step_s")
+    arrays = [f.name for f in dataclasses.fields(trace) if f.name not in scalars]
     assert len(arrays) == 11
     for name in arrays:
         assert np.array_equal(getattr(back, name), getattr(trace, name)), name
-    assert (back.status, back.reason) == (trace.status, trace.reason)
+    assert [getattr(back, name) for name in scalars] == [getattr(trace, name) for name in scalars]
     stored = read_provenance(path)
     assert stored == json.loads(json.dumps(record))
     assert stored["run_id"] == "unit_test/offset_mm=1.0"

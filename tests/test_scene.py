@@ -116,6 +116,8 @@ def test_config_round_trip_and_strict_keys():
         ("solver", "time_step_s", 0.0, r"scene\.solver\.time_step_s.*a step in"),
         ("solver", "time_step_s", 10.0, r"scene\.solver\.time_step_s.*a step in"),
         ("solver", "time_step_s", 1e-12, r"scene\.solver\.time_step_s.*a step in"),
+        ("solver", "retry_time_step_s", 0.003, r"scene\.solver\.retry_time_step_s.*divides"),
+        ("solver", "retry_time_step_s", 0.0015, r"scene\.solver\.retry_time_step_s.*divides"),
         ("hole", "chamfer_width_m", -0.001, r"scene\.hole\.chamfer_width_m.*>= 0"),
         ("material", "friction", "high", r"scene\.material\.friction.*a number"),
         ("solver", "contact_model", "magic", r"scene\.solver\.contact_model.*one of"),
@@ -154,6 +156,28 @@ def test_divergence_is_data_not_an_exception():
     # The trace stops before the offending sample and every kept force is within the limit.
     assert 0 < len(trace) < 1001
     assert np.all(np.hypot(*trace.contact_force[:, :2].T) <= 1.0)
+
+
+def test_a_rollout_that_diverges_is_rerun_once_at_the_retry_step():
+    # A spring twice as stiff as Table 4's: the explicit spring is unstable at 2 ms (its limit
+    # scales as 1/sqrt(k): 2.5 ms -> 1.8 ms) and stable at 1 ms.
+    stiff = SceneConfig().replace(spring__stiffness=(2000.0, 2000.0, 2.0))
+    no_retry = PegInHoleScene(stiff.replace(solver__retry_time_step_s=0.0))
+    hole = stiff.hole
+    robot = straight_line(
+        robot_for_tip(no_retry, hole.x_m - 0.03, hole.top_y_m + 0.01),
+        robot_for_tip(no_retry, hole.x_m - 0.02, hole.top_y_m + 0.01),
+    )
+    failed = no_retry.rollout(robot)
+    assert failed.status == "diverged" and failed.time_step_s == 0.002
+    retried = PegInHoleScene(stiff).rollout(robot)
+    assert retried.ok and retried.time_step_s == 0.001
+    # The rerun's trace is sampled at the configured step: the 1 ms rollout's every other sample.
+    fine = PegInHoleScene(stiff.replace(solver__time_step_s=0.001, solver__retry_time_step_s=0.0))
+    reference = fine.rollout(robot)
+    assert len(retried) == len(robot.times_s) == (len(reference) + 1) // 2
+    assert np.array_equal(retried.time_s, reference.time_s[::2])
+    assert np.array_equal(retried.q_peg_bottom, reference.q_peg_bottom[::2])
 
 
 def test_penetration_depth_of_peg_corners(scene):

@@ -57,6 +57,7 @@ def test_bands_and_success_table_per_method_and_dimension():
             "goal_iteration": [3, None, 10],
             "final_success_fraction": [1.0, 0.0, 0.5],
             "diverged_fraction": [0.1, 0.0, 0.2],
+            "retried_fraction": [0.04, 0.02, 0.0],
             "deploy_diverged_fraction": [0.0, 0.5, 1.0],
         }
     )
@@ -71,6 +72,7 @@ def test_bands_and_success_table_per_method_and_dimension():
     assert overall.loc["b", "median_goal_iteration"] == 10
     assert overall.loc["b", "mean_last10_success_fraction"] == 0.5
     assert overall.loc["a", "deploy_diverged_fraction"] == 0.25
+    assert overall.loc["a", "retried_rollout_fraction"] == pytest.approx(0.03)
     assert overall.loc["a", "first_success_rate"] == 0.5
     seed_one = table[(table["dimension"] == "planner.seed") & (table["level"] == "1")]
     assert seed_one["method"].tolist() == ["a"] and seed_one["runs"].tolist() == [1]

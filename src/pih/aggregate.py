@@ -53,7 +53,7 @@ def run_title(point: Mapping[str, Any], planner: Mapping[str, Any]) -> str:
     return ", ".join([variant(planner), *levels])
 
 
-def run_summary(rollouts: pd.DataFrame, tolerance_m: float) -> dict[str, Any]:
+def run_summary(rollouts: pd.DataFrame, tolerance_m: float, time_step_s: float) -> dict[str, Any]:
     """One planning run's outcome: deployment success (the headline) and the training view."""
     train = rollouts[rollouts["phase"] == "train"]
     deploy = rollouts[rollouts["phase"] == "deploy"]
@@ -67,6 +67,7 @@ def run_summary(rollouts: pd.DataFrame, tolerance_m: float) -> dict[str, Any]:
         "first_success_iteration": int(successes.iloc[0]) if len(successes) else None,
         "goal_iteration": int(goal_reached.iloc[0]) if len(goal_reached) else None,
         "diverged_fraction": float((train["status"] != "ok").mean()),
+        "retried_fraction": float((train["time_step_s"] != time_step_s).mean()),
         "deploy_diverged_fraction": float((deploy["status"] != "ok").mean())
         if len(deploy)
         else math.nan,
@@ -114,6 +115,10 @@ SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
         "median first iteration whose goal was within tolerance of the true hole (never: NaN)",
     ),
     "diverged_rollout_fraction": ("1", "mean fraction of diverged training rollouts"),
+    "retried_rollout_fraction": (
+        "1",
+        "mean fraction of training rollouts rerun at solver.retry_time_step_s after diverging",
+    ),
     "deploy_diverged_fraction": (
         "1",
         "mean fraction of deployment trials that ended in a simulation failure (not successes)",
@@ -136,7 +141,8 @@ def run_tables(
         tags.update({key: str(point[key]) for key in split_keys(sweep_keys)})
         train = rollouts[(rollouts["phase"] == "train") & rollouts["is_best"]]
         bests.append(train[["iteration", "cost"]].assign(**tags))
-        summaries.append({**tags, **run_summary(rollouts, planner["success_tolerance_m"])})
+        step = record["config"]["scene"]["solver"]["time_step_s"]
+        summaries.append({**tags, **run_summary(rollouts, planner["success_tolerance_m"], step)})
     return pd.concat(bests, ignore_index=True), pd.DataFrame(summaries)
 
 
@@ -208,6 +214,7 @@ def success_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFram
                     ),
                     "median_goal_iteration": _median_or_never(runs["goal_iteration"], n),
                     "diverged_rollout_fraction": float(runs["diverged_fraction"].mean()),
+                    "retried_rollout_fraction": float(runs["retried_fraction"].mean()),
                     "deploy_diverged_fraction": float(runs["deploy_diverged_fraction"].mean()),
                 }
             )

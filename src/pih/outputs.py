@@ -9,6 +9,7 @@ leaves a half-written Parquet file.
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 from collections.abc import Callable, Iterator, Mapping
@@ -223,19 +224,27 @@ def read_units(path: str | Path) -> dict[str, str]:
 
 
 def write_trace(trace: Trace, path: str | Path, provenance: Mapping[str, Any]) -> None:
-    """One rollout trace to Parquet; its status and reason go in ``pih.trace`` metadata."""
+    """One rollout trace to Parquet; its status, reason and step go in ``pih.trace`` metadata."""
     write_table(
         trace_frame(trace),
         path,
         provenance,
         TRACE_COLUMNS,
-        extra_metadata={"trace": {"status": trace.status, "reason": trace.reason}},
+        extra_metadata={
+            "trace": {
+                "status": trace.status,
+                "reason": trace.reason,
+                "time_step_s": trace.time_step_s,
+            }
+        },
     )
 
 
 def read_trace(path: str | Path) -> Trace:
     info = read_metadata(path, "trace")
-    return frame_trace(pd.read_parquet(path), info["status"], info["reason"])
+    trace = frame_trace(pd.read_parquet(path), info["status"], info["reason"])
+    trace.time_step_s = info.get("time_step_s", math.nan)
+    return trace
 
 
 MARKDOWN_PROVENANCE = "<!-- pih.provenance "

@@ -394,6 +394,7 @@ ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
     "is_best": ("1", "lowest cost of its training iteration"),
     "status": ("", "ok or diverged"),
     "reason": ("", "why the rollout diverged"),
+    "time_step_s": ("s", "simulator step the rollout ran at (solver.retry_time_step_s if rerun)"),
     "sigma": ("1", "optimizer exploration scale σ_W when sampled (0 for deploy)"),
 }
 PATH_COLUMNS: dict[str, tuple[str, str]] = {
@@ -506,6 +507,7 @@ class RunRecorder:
                     "is_best": False,
                     "status": trace.status,
                     "reason": trace.reason,
+                    "time_step_s": trace.time_step_s,
                     "sigma": sigma,
                 }
             )

@@ -15,6 +15,7 @@ each robot trajectory, so thousands of rollouts share one process and one diagra
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -121,6 +122,10 @@ class Trace:
     penetration_m: NDArray[np.float64]
     status: Status = "ok"
     reason: str = ""
+    # The step the rollout ran at: solver.time_step_s, or solver.retry_time_step_s when it
+    # diverged at the configured step and was rerun (the arrays are then sampled every
+    # time_step_s all the same).
+    time_step_s: float = math.nan
 
     @property
     def ok(self) -> bool:
@@ -161,6 +166,7 @@ class PegInHoleScene:
     def __init__(self, config: SceneConfig | None = None) -> None:
         self.config = config or SceneConfig()
         self.config.validate()
+        self._fine: PegInHoleScene | None = None  # the retry step's scene (see _retry)
         self._build()
         profile = self._wall_profile = wall_profile(self.config.hole)
         edges = np.roll(profile, -1, axis=0) - profile
@@ -390,7 +396,36 @@ class PegInHoleScene:
                 ]
                 break
             reason = self._check_state(context.get_time())
-        return self._trace(robot, "" if reason == "stop" else reason)
+        trace = self._trace(robot, "" if reason == "stop" else reason)
+        if trace.ok or cfg.solver.retry_time_step_s == 0:
+            return trace
+        return self._retry(robot, trace.reason)
+
+    def _retry(self, robot: RobotTrajectory, first_reason: str) -> Trace:
+        """The rollout once more at ``solver.retry_time_step_s`` (a second diagram, built on
+        first use), its trace sampled at the configured step."""
+        solver = self.config.solver
+        if self._fine is None:
+            self._fine = PegInHoleScene(
+                self.config.replace(
+                    solver__time_step_s=solver.retry_time_step_s, solver__retry_time_step_s=0.0
+                )
+            )
+        fine = self._fine.rollout(robot)
+        every = round(solver.time_step_s / solver.retry_time_step_s)
+        arrays = {
+            f.name: getattr(fine, f.name)[::every]
+            for f in dataclasses.fields(fine)
+            if isinstance(getattr(fine, f.name), np.ndarray)
+        }
+        at = f"{1e3 * solver.time_step_s:g} ms"
+        reason = f"{fine.reason} (rerun at the retry step; at {at}: {first_reason})"
+        return Trace(
+            **arrays,
+            status=fine.status,
+            reason=reason if fine.reason else "",
+            time_step_s=solver.retry_time_step_s,
+        )
 
     def _check_state(self, t: float) -> str:
         """Stop a running rollout early on the divergence criteria (the full trace is checked
@@ -475,6 +510,7 @@ class PegInHoleScene:
             penetration_m=penetration[cut],
             status="diverged" if reason else "ok",
             reason=reason,
+            time_step_s=cfg.solver.time_step_s,
         )
 
     def _aligned_patch_counts(self, times: NDArray[np.float64]) -> NDArray[np.int64]:
