@@ -45,9 +45,6 @@ def test_inner_cost_terms_match_eq_11():
     assert terms.spring_energy == pytest.approx(20 * energy)
     distance = ((0.005 / 0.005) ** 2 + (0.015 / 0.001) ** 2) + ((0.003 / 0.005) ** 2)
     assert terms.hole_distance == pytest.approx(10 * distance)
-    assert terms.total == pytest.approx(
-        terms.regularization + terms.spring_energy + terms.hole_distance
-    )
 
 
 def test_outer_goal_is_the_explored_pose_nearest_the_sensed_hole():

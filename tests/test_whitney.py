@@ -488,3 +488,10 @@ def test_tip_on_wall_and_mirror_two_point():
     g2 = g1 - mirror.f_x_n
     assert (g1 >= -1e-12).all() and (g2 > 0).all()
     assert mirror.f_z_n.to_numpy() == pytest.approx(p.friction * (g1 + g2).to_numpy())
+
+
+def test_frictionless_peg_has_an_infinite_wedging_angle():
+    assert WhitneyParams(friction=0.0).wedging_angle_rad == math.inf
+    assert WhitneyParams(friction=0.6).wedging_angle_rad == pytest.approx(
+        WhitneyParams().clearance_ratio / 0.6
+    )

@@ -233,10 +233,6 @@ class CostTerms:
     def values(self) -> NDArray[np.float64]:
         return np.array([self.regularization, self.spring_energy, self.hole_distance])
 
-    @property
-    def total(self) -> float:
-        return self.regularization + self.spring_energy + self.hole_distance
-
 
 def inner_cost(
     weights: NDArray[np.float64],

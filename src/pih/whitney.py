@@ -151,8 +151,8 @@ class WhitneyParams:
 
     @property
     def wedging_angle_rad(self) -> float:
-        """theta_w = c/mu (10-6)."""
-        return self.clearance_ratio / self.friction
+        """theta_w = c/mu (10-6); without friction (mu = 0) a peg cannot wedge: infinite."""
+        return self.clearance_ratio / self.friction if self.friction > 0 else math.inf
 
     @property
     def design_tilt_rad(self) -> float:
