@@ -3,7 +3,7 @@
 Runs Algorithm 1 with the default configuration (paper Table 4: 50 iterations × 10 rollouts,
 start x_P = −0.035 m) in one process and prints wall-clock figures.
 
-    python benchmarks/planner.py [--iterations 50] [--method bilevel] [--seed 0]
+    python benchmarks/planner.py [--iterations 50] [--method bilevel] [--seed 0] [--workers 1]
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ def main() -> None:
         "--rule", default="explored_argmin", choices=["explored_argmin", "deepest_explored"]
     )
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--workers", type=int, default=1, help="processes for the rollouts")
     args = parser.parse_args()
 
     config = replace(
@@ -37,10 +38,11 @@ def main() -> None:
     started = time.perf_counter()
     planner = Planner.from_configs(SceneConfig(), config)
     setup = time.perf_counter() - started
-    record = planner.run()
+    record = planner.run(workers=args.workers)
     rollouts = len(record.rollouts)
     print(
-        f"{args.method}, {args.iterations} iterations x {config.optimizer.population_size} rollouts: "
+        f"{args.method}, {args.iterations} iterations x {config.optimizer.population_size} rollouts, "
+        f"{args.workers} worker(s): "
         f"{record.seconds:.1f} s per run ({record.seconds / args.iterations:.2f} s per iteration, "
         f"{1000 * record.rollout_seconds / rollouts:.0f} ms per rollout incl. DMP and costs; "
         f"setup {1000 * setup:.0f} ms); success iteration {record.success_iteration}; "

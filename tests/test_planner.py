@@ -4,6 +4,7 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from pih.config import ConfigError, from_mapping, to_mapping
@@ -93,6 +94,16 @@ def tiny_runs():
     second = Planner.from_configs(scene, config).run()
     one_level = Planner.from_configs(scene, replace(config, method="one_level")).run()
     return first, second, one_level
+
+
+def test_rollouts_in_worker_processes_give_the_same_run(tiny_runs):
+    first, _, _ = tiny_runs
+    config = short_config(iterations=2, population_size=3)
+    parallel = Planner.from_configs(SceneConfig(), config).run(workers=2)
+    pd.testing.assert_frame_equal(parallel.rollouts, first.rollouts)
+    pd.testing.assert_frame_equal(parallel.best_paths, first.best_paths)
+    with pytest.raises(ConfigError, match="workers"):
+        Planner.from_configs(SceneConfig(), config).run(workers=0)
 
 
 def test_run_record_is_complete_and_deterministic(tiny_runs):

@@ -158,6 +158,35 @@ def test_divergence_is_data_not_an_exception():
     assert np.all(np.hypot(*trace.contact_force[:, :2].T) <= 1.0)
 
 
+def test_a_trace_is_unchanged_by_the_next_rollout_on_the_same_scene(scene):
+    hole = scene.config.hole
+    first = scene.rollout(
+        straight_line(
+            robot_for_tip(scene, hole.x_m - 0.03, hole.top_y_m + 0.01),
+            robot_for_tip(scene, hole.x_m - 0.02, hole.top_y_m + 0.01),
+        )
+    )
+    kept = {name: getattr(first, name).copy() for name in ("time_s", "q_robot", "q_peg_top")}
+    # A rollout that ends in contact, then one in free flight: nothing of the first leaks into
+    # the second (Drake's sampled contact output is reset), nor of the second into the first.
+    into_hole = scene.rollout(
+        straight_line(
+            robot_for_tip(scene, hole.x_m - 0.001, hole.top_y_m + 0.001),
+            robot_for_tip(scene, hole.x_m - 0.001, hole.y_m + 0.003),
+        )
+    )
+    assert np.any(into_hole.contact_force[-1, :2] != 0.0)
+    free = scene.rollout(
+        straight_line(
+            robot_for_tip(scene, hole.x_m - 0.03, hole.top_y_m + 0.01),
+            robot_for_tip(scene, hole.x_m - 0.02, hole.top_y_m + 0.01),
+        )
+    )
+    assert np.all(free.contact_force == 0.0)
+    for name, values in kept.items():
+        assert np.array_equal(getattr(first, name), values), name
+
+
 def test_a_rollout_that_diverges_is_rerun_once_at_the_retry_step():
     # A spring twice as stiff as Table 4's: the explicit spring is unstable at 2 ms (its limit
     # scales as 1/sqrt(k): 2.5 ms -> 1.8 ms) and stable at 1 ms.

@@ -26,10 +26,12 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+import multiprocessing
 import time
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, Self
 
 import numpy as np
 import pandas as pd
@@ -602,8 +604,18 @@ class Planner:
         """One-level aims at the sensed hole; bilevel where its outer level says."""
         return sensed.copy() if self.config.method == "one_level" else outer.goal(sensed)
 
-    def run(self, progress: Callable[[IterationReport], None] | None = None) -> RunRecord:
-        """Algorithm 1, then the deployment trials of the learned policy."""
+    def run(
+        self, progress: Callable[[IterationReport], None] | None = None, workers: int = 1
+    ) -> RunRecord:
+        """Algorithm 1, then the deployment trials of the learned policy. With ``workers`` > 1
+        an iteration's rollouts run in that many processes (:class:`RolloutWorkers`); the
+        record is the same for any number of workers."""
+        with RolloutWorkers(self, workers) as rollouts:
+            return self._run(rollouts, progress)
+
+    def _run(
+        self, rollouts: RolloutWorkers, progress: Callable[[IterationReport], None] | None
+    ) -> RunRecord:
         cfg = self.config
         noise = np.random.default_rng(self.seeds["noise"])
         optimizer = make_optimizer(
@@ -621,11 +633,10 @@ class Planner:
             if iteration > 1 and cfg.sensing.redraw == "per_iteration":
                 sensed = self.sense_hole(noise)
             target = self.target(outer, sensed)
-            dmp = self.dmp(target)
             sigma = optimizer.sigma
             samples = optimizer.ask()
             t0 = time.perf_counter()
-            traces, terms = zip(*(self.evaluate(dmp, w, sensed) for w in samples))
+            traces, terms = zip(*rollouts.evaluate([(target, w, sensed) for w in samples]))
             rollout_seconds += time.perf_counter() - t0
             costs = balance.totals(list(terms))
             optimizer.tell(samples, costs)
@@ -636,7 +647,7 @@ class Planner:
             if self._converged(recorder.best_costs):
                 stop_reason = f"converged at iteration {iteration}"
                 break
-        deployment = self.deploy(optimizer.mean, outer, balance, recorder, iteration)
+        deployment = self.deploy(optimizer.mean, outer, balance, recorder, iteration, rollouts)
         rollouts, best_paths = recorder.tables()
         return RunRecord(
             rollouts=rollouts,
@@ -657,15 +668,16 @@ class Planner:
         balance: CostBalance,
         recorder: RunRecorder,
         iterations_trained: int,
+        rollouts: RolloutWorkers,
     ) -> float:
         """Run the learned mean weights (no exploration) ``deploy_trials`` times, each against a
         freshly sensed hole; the fraction that inserts (true |P2 − H| ≤ tolerance)."""
         rng = np.random.default_rng(self.seeds["deployment"])
+        sensings = [self.sense_hole(rng) for _ in range(self.config.deploy_trials)]
+        targets = [self.target(outer, sensed) for sensed in sensings]
+        results = rollouts.evaluate([(t, policy, s) for t, s in zip(targets, sensings)])
         successes = 0
-        for trial in range(self.config.deploy_trials):
-            sensed = self.sense_hole(rng)
-            target = self.target(outer, sensed)
-            trace, terms = self.evaluate(self.dmp(target), policy, sensed)
+        for trial, (sensed, target, (trace, terms)) in enumerate(zip(sensings, targets, results)):
             costs = balance.totals([terms])
             recorder.add(
                 "deploy", iterations_trained, sensed, target, [trace], [terms], costs, 0.0, trial
@@ -683,6 +695,61 @@ class Planner:
         return float(np.ptp(recent)) <= self.config.convergence_tolerance * abs(
             float(recent.mean())
         )
+
+
+Rollout = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+"""One rollout to evaluate: (P2 target of the DMP's goal, weights W, sensed hole q̃_H)."""
+
+
+class RolloutWorkers:
+    """Evaluates a planner's rollouts in this process, or in ``workers`` processes that each
+    build the same scene once (one Drake diagram per process). Rollouts are deterministic
+    given (target, W, q̃_H), and results come back in order, so the run does not depend on
+    the number of workers. Use as a context manager."""
+
+    def __init__(self, planner: Planner, workers: int = 1) -> None:
+        require(isinstance(workers, int) and workers >= 1, "workers", "an integer >= 1", workers)
+        self.planner = planner
+        self.workers = workers
+        self._pool: ProcessPoolExecutor | None = None
+
+    def __enter__(self) -> Self:
+        if self.workers > 1:
+            # "spawn": a fresh interpreter per worker, never a fork of a process holding Drake.
+            self._pool = ProcessPoolExecutor(
+                self.workers,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=_start_worker,
+                initargs=(self.planner.scene.config, self.planner.config),
+            )
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(cancel_futures=True)
+
+    def evaluate(self, rollouts: list[Rollout]) -> list[tuple[Trace, CostTerms | None]]:
+        if self._pool is None:
+            return [_evaluate(self.planner, rollout) for rollout in rollouts]
+        return list(self._pool.map(_evaluate_in_worker, rollouts))
+
+
+_WORKER_PLANNER: Planner | None = None
+
+
+def _start_worker(scene: SceneConfig, config: PlannerConfig) -> None:
+    global _WORKER_PLANNER
+    _WORKER_PLANNER = Planner(PegInHoleScene(scene), config)
+
+
+def _evaluate(planner: Planner, rollout: Rollout) -> tuple[Trace, CostTerms | None]:
+    target, weights, sensed = rollout
+    return planner.evaluate(planner.dmp(target), weights, sensed)
+
+
+def _evaluate_in_worker(rollout: Rollout) -> tuple[Trace, CostTerms | None]:
+    assert _WORKER_PLANNER is not None
+    return _evaluate(_WORKER_PLANNER, rollout)
 
 
 def _pose_columns(prefix: str, q: NDArray[np.float64]) -> dict[str, float]:

@@ -246,6 +246,10 @@ class PegInHoleScene:
         self._simulator = Simulator(self._diagram)
         self._context = self._simulator.get_mutable_context()
         self._plant_context = plant.GetMyMutableContextFromRoot(self._context)
+        self._fresh_sampled_outputs = [
+            self._plant_context.get_abstract_state(i).Clone()
+            for i in range(self._plant_context.num_abstract_states())
+        ]
         self._patch_counts: list[tuple[float, int]] = []
         counts = self._patch_counts
         plant_context = self._plant_context
@@ -375,6 +379,10 @@ class PegInHoleScene:
         context = self._context
         context.SetTime(0.0)
         self._diagram.SetDefaultContext(context)
+        # SetDefaultContext keeps the plant's sampled output ports (abstract state): without this
+        # the first logged contact force would be the previous rollout's last one.
+        for index, value in enumerate(self._fresh_sampled_outputs):
+            self._plant_context.get_mutable_abstract_state(index).SetFrom(value)
         context.SetTime(0.0)
         self._plant.SetPositions(self._plant_context, self._peg_instance, robot.poses[0])
         self._plant.SetVelocities(self._plant_context, self._peg_instance, np.zeros(3))
@@ -458,11 +466,12 @@ class PegInHoleScene:
     def _trace(self, robot: RobotTrajectory, reason: str) -> Trace:
         cfg = self.config
         context = self._context
+        # Copies: the logs' arrays are views into buffers the next rollout overwrites.
         state_log = self._state_log.FindLog(context)
-        times = state_log.sample_times()
-        state = state_log.data().T
-        robot_q = self._robot_log.FindLog(context).data().T[:, :3]
-        generalized = self._contact_log.FindLog(context).data().T
+        times = state_log.sample_times().copy()
+        state = state_log.data().T.copy()
+        robot_q = self._robot_log.FindLog(context).data().T[:, :3].copy()
+        generalized = self._contact_log.FindLog(context).data().T.copy()
         q_top = state[:, :3]
         q_peg = offset_along_axis(q_top, -cfg.peg.length_m / 2)
         q_bottom = self.peg_bottom_from_top(q_top)

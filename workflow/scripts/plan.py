@@ -19,7 +19,10 @@ with logged(snakemake.log[0]):
     )
     key = seed_key(point)
     planner = Planner.from_configs(scene, planner_config, key)
-    record = planner.run(progress=lambda report: print(report, flush=True))
+    # threads > 1 (--set-threads plan=N): an iteration's rollouts run in N processes.
+    record = planner.run(
+        progress=lambda report: print(report, flush=True), workers=snakemake.threads
+    )
     summary = {
         "success_iteration": record.success_iteration,
         "deploy_success_rate": record.deploy_success_rate,
