@@ -10,10 +10,15 @@ from snakemake.utils import min_version
 
 min_version("9.0")
 
-# Jobs are single-threaded: NumPy/BLAS and Drake must not oversubscribe a core (locally or on
-# a cluster node; sbatch passes the environment on).
+# Each job process is single-threaded (a plan job with N threads runs N such processes):
+# NumPy/BLAS and Drake must not oversubscribe a core (sbatch passes the environment on).
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+from pih.study_config import load_yaml_strictly
+
+# Snakemake's own message for a YAML syntax error names neither the file nor the line.
+load_yaml_strictly("config/config.yaml")
 
 
 configfile: "config/config.yaml"

@@ -113,6 +113,18 @@ def test_repeated_yaml_key_stops_naming_file_and_line(tmp_path):
 
 
 @pytest.mark.slow
+def test_default_config_with_a_yaml_syntax_error_stops_naming_file_and_line(tmp_path):
+    work = copy_workflow(tmp_path)
+    config = work / "config" / "config.yaml"
+    config.write_text(config.read_text().replace("  peg:\n", "  peg: {\n", 1))
+    result = snakemake(work, "--dry-run", check=False)
+    assert result.returncode != 0
+    output = result.stdout + result.stderr
+    assert "config/config.yaml, line 7, column 5: not valid YAML" in output
+    assert "Traceback" not in output and len(output.splitlines()) <= 20
+
+
+@pytest.mark.slow
 def test_own_config_file_defines_its_own_sweep(tmp_path):
     work = copy_workflow(tmp_path)
     own = {"sweep": {"planner.method": ["one_level", "bilevel"]}, "figure_point": {}}

@@ -240,7 +240,7 @@ def read_config_files(
 
 
 def load_yaml_strictly(path: str) -> Any:
-    """YAML that rejects a repeated key, naming the file and line."""
+    """YAML that rejects a repeated key, and reports a syntax error, naming the file and line."""
     import yaml
 
     class Loader(yaml.SafeLoader):
@@ -255,7 +255,12 @@ def load_yaml_strictly(path: str) -> Any:
             return super().construct_mapping(node, deep=deep)
 
     with open(path) as handle:
-        return yaml.load(handle, Loader=Loader)
+        try:
+            return yaml.load(handle, Loader=Loader)
+        except yaml.MarkedYAMLError as error:
+            mark = error.problem_mark or error.context_mark
+            where = f", line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+            raise ConfigError(f"{path}{where}: not valid YAML ({error.problem})") from None
 
 
 def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> None:
