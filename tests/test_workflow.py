@@ -278,10 +278,11 @@ def recorded_outputs(workdir: Path) -> set[Path]:
     return {workdir / base64.urlsafe_b64decode(name).decode() for name in names}
 
 
-def running_jobs(workdir: Path) -> int:
-    """Jobs Snakemake has started and not yet finished (its incomplete markers)."""
+def unfinished_outputs(workdir: Path) -> set[Path]:
+    """Outputs of jobs Snakemake has started and not yet finished (its incomplete markers)."""
     folder = workdir / ".snakemake" / "incomplete"
-    return len(os.listdir(folder)) if folder.is_dir() else 0
+    names = os.listdir(folder) if folder.is_dir() else []
+    return {workdir / base64.urlsafe_b64decode(name).decode() for name in names}
 
 
 @pytest.mark.slow
@@ -300,12 +301,13 @@ def test_killed_run_resumes_without_corrupt_outputs(tmp_path):
     # Kill once a job has finished (recorded by Snakemake) while a later one is running.
     deadline = time.time() + 300
     while time.time() < deadline and not (
-        any(p.suffix == ".parquet" for p in recorded_outputs(work)) and running_jobs(work)
+        any(p.suffix == ".parquet" for p in recorded_outputs(work)) and unfinished_outputs(work)
     ):
         time.sleep(0.05)
-    finished_before = {
-        p: p.stat().st_mtime_ns for p in recorded_outputs(work) if p.suffix == ".parquet"
-    }
+    # A job's outputs are recorded one by one as it finishes; while its incomplete marker
+    # remains it has not finished, and the rerun rightly redoes it.
+    finished = recorded_outputs(work) - unfinished_outputs(work)
+    finished_before = {p: p.stat().st_mtime_ns for p in finished if p.suffix == ".parquet"}
     os.killpg(process.pid, signal.SIGTERM)  # `kill`: Snakemake and the running job are stopped
     process.wait(timeout=60)
     assert finished_before, "no job finished within the deadline"
