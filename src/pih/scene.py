@@ -426,8 +426,8 @@ class PegInHoleScene:
             for f in dataclasses.fields(fine)
             if isinstance(getattr(fine, f.name), np.ndarray)
         }
-        at = f"{1e3 * solver.time_step_s:g} ms"
-        reason = f"{fine.reason} (rerun at the retry step; at {at}: {first_reason})"
+        retry, step = (f"{1e3 * t:g} ms" for t in (solver.retry_time_step_s, solver.time_step_s))
+        reason = f"at the {retry} retry: {fine.reason} (at {step}: {first_reason})"
         return Trace(
             **arrays,
             status=fine.status,
