@@ -715,10 +715,12 @@ class RolloutWorkers:
 
     def __enter__(self) -> Self:
         if self.workers > 1:
-            # "spawn": a fresh interpreter per worker, never a fork of a process holding Drake.
+            # "fork", not "spawn": spawn re-runs the main module in each worker, and a Snakemake
+            # script has no __main__ guard (each worker would rerun the whole job). Each worker
+            # builds its own scene; nothing of the parent's diagram is used.
             self._pool = ProcessPoolExecutor(
                 self.workers,
-                mp_context=multiprocessing.get_context("spawn"),
+                mp_context=multiprocessing.get_context("fork"),
                 initializer=_start_worker,
                 initargs=(self.planner.scene.config, self.planner.config),
             )
