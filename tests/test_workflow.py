@@ -6,7 +6,6 @@ own results/ are never touched.
 
 from __future__ import annotations
 
-import base64
 import json
 import math
 import os
@@ -23,6 +22,7 @@ import yaml
 from pih.outputs import read_output_provenance, read_provenance
 from pih.provenance import stable
 from pih.study_config import config_schema
+from pih.workflow import recorded_outputs, unfinished_outputs
 
 ROOT = Path(__file__).resolve().parents[1]
 SMOKE = yaml.safe_load((ROOT / "config" / "smoke.yaml").read_text())
@@ -269,20 +269,6 @@ def test_rerun_is_a_no_op_and_a_forced_rerun_gives_the_same_data(smoke_run):
     assert target.stat().st_mtime_ns > written, "the forced re-run did not rewrite the file"
     pd.testing.assert_frame_equal(before, after)
     assert stable(before_record) == stable(after_record)
-
-
-def recorded_outputs(workdir: Path) -> set[Path]:
-    """Outputs of the jobs Snakemake has recorded as finished (its metadata records)."""
-    folder = workdir / ".snakemake" / "metadata"
-    names = os.listdir(folder) if folder.is_dir() else []
-    return {workdir / base64.urlsafe_b64decode(name).decode() for name in names}
-
-
-def unfinished_outputs(workdir: Path) -> set[Path]:
-    """Outputs of jobs Snakemake has started and not yet finished (its incomplete markers)."""
-    folder = workdir / ".snakemake" / "incomplete"
-    names = os.listdir(folder) if folder.is_dir() else []
-    return {workdir / base64.urlsafe_b64decode(name).decode() for name in names}
 
 
 @pytest.mark.slow

@@ -191,12 +191,12 @@ class SolverConfig:
             "diverges at 2.5 ms, measured; see docs/simulation.md)",
             self.time_step_s,
         )
-        ratio = self.time_step_s / self.retry_time_step_s if self.retry_time_step_s > 0 else 2.0
+        retry = self.retry_time_step_s
         require(
-            self.retry_time_step_s == 0
+            retry == 0
             or (
-                MIN_TIME_STEP_S <= self.retry_time_step_s < self.time_step_s
-                and abs(ratio - round(ratio)) < 1e-9
+                MIN_TIME_STEP_S <= retry < self.time_step_s
+                and abs(self.time_step_s / retry - round(self.time_step_s / retry)) < 1e-9
             ),
             prefix + "retry_time_step_s",
             f"0 (no retry) or a step >= {MIN_TIME_STEP_S:g} s that divides time_step_s = "

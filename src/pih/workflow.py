@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import base64
 import logging
+import os
 import traceback
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager, redirect_stderr, redirect_stdout
@@ -33,6 +35,22 @@ def job_provenance(
     return provenance.record(
         step, point=point if point is not None else wildcards, inputs=list(smk.input), **fields
     )
+
+
+def recorded_outputs(workdir: Path) -> set[Path]:
+    """Outputs Snakemake has recorded (its metadata records, written one by one as a job ends)."""
+    return _job_records(workdir, "metadata")
+
+
+def unfinished_outputs(workdir: Path) -> set[Path]:
+    """Outputs of jobs Snakemake has started and not finished (its incomplete markers)."""
+    return _job_records(workdir, "incomplete")
+
+
+def _job_records(workdir: Path, kind: str) -> set[Path]:
+    folder = workdir / ".snakemake" / kind
+    names = os.listdir(folder) if folder.is_dir() else []
+    return {workdir / base64.urlsafe_b64decode(name).decode() for name in names}
 
 
 def mock_snakemake(target: str, configfiles: list[str] | None = None) -> tuple[Any, Path]:
