@@ -37,6 +37,7 @@ rule all:
     default_target: True
     input:
         rules.validation_compare.output,
+        rules.validation_variants.output,
         rules.planning_aggregate.output,
         rules.provenance_index.output,
         rules.summary.output,

@@ -131,3 +131,41 @@ def test_variants_are_named_overrides_swept_like_a_dimension():
         sweep_points({"variant": ["nope"]}, variants)
     with pytest.raises(ConfigError, match="variant 'nope'"):
         resolve(config, {"variant": "nope"})
+
+
+def test_validation_variants_apply_over_the_validation_scene_and_name_bad_keys():
+    from pih.config import from_mapping
+    from pih.study_config import ValidationSection
+
+    section = ValidationSection(
+        scene_overrides={"material.margin_m": 0.0, "hole.fillet_radius_m": 1e-4},
+        variants={"base": {}, "tamsi": {"solver.discrete_contact_approximation": "tamsi"}},
+        figure_variants=("base",),
+    )
+    scene = to_mapping(SceneConfig())
+    base, tamsi = section.scene(scene, "base"), section.scene(scene, "tamsi")
+    assert base.material.margin_m == tamsi.material.margin_m == 0.0  # shared overrides
+    assert tamsi.hole.fillet_radius_m == 1e-4
+    assert (
+        base.solver.discrete_contact_approximation,
+        tamsi.solver.discrete_contact_approximation,
+    ) == (
+        SceneConfig().solver.discrete_contact_approximation,
+        "tamsi",
+    )
+    assert base.hole.depth_m == section.experiment.hole_depth_m  # deep validation hole
+    bad = ValidationSection(variants={"x": {"material.no_such_key": 1.0}}, figure_variants=("x",))
+    with pytest.raises(ConfigError, match=r"validation\.variants\.x: .*no_such_key"):
+        bad.scene(scene, "x")
+    data = to_mapping(section)
+    for edit, key in (
+        (lambda d: d.update(figure_variants=["nope"]), "figure_variants"),
+        (lambda d: d.update(variants={"Bad Name": {}}), "variants"),
+        (lambda d: d.update(variants={}), "variants"),
+        (lambda d: d["variants"].update(base=3), r"validation\.variants\.base"),
+    ):
+        broken = to_mapping(section)
+        edit(broken)
+        with pytest.raises(ConfigError, match=key):
+            from_mapping(ValidationSection, broken, "validation")
+    assert from_mapping(ValidationSection, data, "validation") == section

@@ -5,6 +5,7 @@ import pandas as pd
 
 from pih.summary import (
     PAPER_PEARSON_R,
+    chosen_variants,
     pearson_table,
     planning_rows,
     relative_error_table,
@@ -19,6 +20,7 @@ def _comparison() -> pd.DataFrame:
             for offset in (0.0005, 0.002):
                 rows.append(
                     {
+                        "variant": model,
                         "contact_model": model,
                         "alignment": alignment,
                         "offset": f"{1e3 * offset:g} mm",
@@ -39,6 +41,7 @@ def _comparison() -> pd.DataFrame:
                 )
             rows.append(
                 {
+                    "variant": model,
                     "contact_model": model,
                     "alignment": alignment,
                     "offset": "pooled",
@@ -88,7 +91,22 @@ def test_planning_rows_are_the_overall_rows_with_the_papers_claim():
 
 
 def test_summary_names_the_code_version_and_links_the_tables():
-    text = summary_markdown(_comparison(), _success(), "abc123", {"success": "planning/s.md"})
+    variants = _comparison().assign(chosen=False, max_rel_err_pct=np.nan)
+    text = summary_markdown(
+        _comparison(), variants, _success(), "abc123", {"success": "planning/s.md"}
+    )
     assert "`abc123`" in text
     assert "- [success](planning/s.md)" in text
     assert text.index("Would the learned policy insert") < text.index("Whitney")
+
+
+def test_summary_reads_the_first_hydroelastic_variant_and_lists_the_rules_choices():
+    two = pd.concat([_comparison().assign(variant="hydroelastic_b", r_f_x=0.1), _comparison()])
+    assert pearson_table(two)["ours"].tolist()[0] == 0.1  # the first hydroelastic variant only
+    variants = _comparison().assign(
+        chosen=lambda t: (t["offset"] == "pooled") & (t["alignment"] == "chamfer_start"),
+        max_rel_err_pct=4.0,
+    )
+    chosen = chosen_variants(variants)
+    assert chosen["variant"].tolist() == ["hydroelastic", "point"]
+    assert chosen["r(F_x) (1)"].tolist() == [0.98, 0.5]

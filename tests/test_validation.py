@@ -8,6 +8,7 @@ from pih.scene import Trace
 from pih.scene_config import SceneConfig
 from pih.validation import (
     ValidationConfig,
+    choose_variants,
     compare,
     comparison_table,
     pooled_correlation,
@@ -150,8 +151,44 @@ def test_forces_orders_of_magnitude_off_the_theory_are_flagged_not_ok():
     trace.contact_force[:] *= 1e-2
     assert compare(trace, SCENE, 0.001, CONFIG).metrics["trace_status"] == "implausible"
     trace.contact_force[:] *= 1e-4  # what a 1 Pa modulus gave: µN against newtons
-    table, _ = comparison_table({("hydroelastic", 0.001): trace}, SCENE, CONFIG)
+    table, _ = comparison_table({("hydroelastic", 0.001): trace}, {"hydroelastic": SCENE}, CONFIG)
     rows = table[table["offset"] != "pooled"]
     assert set(rows["trace_status"]) == {"implausible"}
     primary = rows[rows["alignment"] == "chamfer_start"]
     assert primary["note"].str.contains("never touched").all()
+
+
+def _noisy_trace(offset_m: float, noise_n: float, seed: int) -> Trace:
+    trace = synthetic_trace(offset_m, 0.0)
+    noise = np.random.default_rng(seed).normal(0.0, noise_n, len(trace))
+    trace.contact_force[:, 0] += noise
+    return trace
+
+
+def test_the_rule_picks_per_contact_model_the_complete_variant_with_the_best_pooled_r():
+    import dataclasses
+
+    point = SCENE.replace(solver__contact_model="point")
+    noise = {"good": 0.2, "noisy": 2.0, "broken": 0.0, "point_noisy": 2.0, "point_good": 0.5}
+    traces = {}
+    for variant, sigma in noise.items():
+        for offset in (0.001, 0.002):
+            trace = _noisy_trace(offset, sigma, seed=len(traces))
+            if variant == "broken":  # the best r, but one offset diverged
+                trace = dataclasses.replace(trace, status="diverged", reason="TAMSI")
+            traces[(variant, offset)] = trace
+    scenes = {v: point if v.startswith("point") else SCENE for v in noise}
+    table = choose_variants(comparison_table(traces, scenes, CONFIG)[0])
+    pooled = table[table["offset"] == "pooled"].set_index(["variant", "alignment"])
+    r = pooled["r_f_x"].xs("chamfer_start", level="alignment")
+    assert r["broken"] > r["good"] > r["noisy"] and r["point_good"] > r["point_noisy"]
+    assert not pooled.loc[("broken", "chamfer_start"), "complete"]
+    assert pooled.loc[("good", "chamfer_start"), "complete"]
+    chosen = table[table["chosen"]]
+    assert sorted(chosen["variant"]) == ["good", "point_good"]
+    assert set(chosen["alignment"]) == {"chamfer_start"}
+    assert table.loc[table["offset"] != "pooled", "chosen"].eq(False).all()
+    worst = pooled.loc[("good", "chamfer_start"), "max_rel_err_pct"]
+    per_offset = table[(table["variant"] == "good") & (table["alignment"] == "chamfer_start")]
+    errors = per_offset.filter(like="rel_err_").dropna(how="all")
+    assert worst == errors.max(axis=None)

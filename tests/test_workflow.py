@@ -131,7 +131,8 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
     jobs = planned_jobs(snakemake(work, "-n", config=own))
     assert jobs["plan"] == 2  # not 2 x the default's starts and seeds
     ablations = planned_jobs(snakemake(work, "-n", "--configfile", "config/ablations.yaml"))
-    assert ablations["plan"] == 6 * 5 * (7 + 5)  # one-level skips the two outer-only variants
+    # 3 starts x 2 seeds x (8 bilevel variants + 6 one-level: the two outer-only variants are skipped)
+    assert ablations["plan"] == 3 * 2 * (8 + 6)
 
 
 @pytest.mark.slow
@@ -156,6 +157,11 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
         (lambda c: c["planner"].update(deploy_trials=0), "planner.deploy_trials"),
         (lambda c: c["planner"]["outer"].update(rule="newton"), "newton"),
         (lambda c: c["sweep"].update(variant=["undefined"]), "sweep.variant"),
+        (
+            lambda c: c["validation"]["variants"].update(soft={"material.no_such_key": 1}),
+            "validation.variants.soft",
+        ),
+        (lambda c: c["validation"].update(figure_variants=["nope"]), "validation.figure_variants"),
     ],
 )
 def test_bad_config_stops_before_any_job_naming_the_key(tmp_path, edit, message):
@@ -241,7 +247,13 @@ def test_smoke_study_outputs_carry_provenance(smoke_run):
     per_start = bands[bands["dimension"] == "planner.start_x_m"]
     assert per_start.groupby("level")["method"].nunique().tolist() == [3, 3]
     aligned = pd.read_parquet(results / "validation" / "aligned_curves.parquet")
-    assert set(aligned["contact_model"]) == {"hydroelastic", "point"}
+    assert set(aligned["variant"]) == {"hydroelastic", "point"}
+    variants = pd.read_parquet(results / "validation" / "variants.parquet")
+    pooled = variants[variants["offset"] == "pooled"]
+    assert set(pooled["variant"]) == {"hydroelastic", "point"}
+    assert pooled["r_f_x"].notna().all() and pooled["complete"].notna().all()
+    assert pooled.groupby("contact_model")["chosen"].sum().le(1).all()
+    assert "Selection rule" in (results / "validation" / "variants.md").read_text()
 
 
 @pytest.mark.slow

@@ -221,17 +221,3 @@ def success_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFram
         return pd.DataFrame(rows)
 
     return _by_dimension(summaries, sweep_keys, table)[list(SUCCESS_COLUMNS)]
-
-
-def markdown_table(frame: pd.DataFrame, float_format: str = "{:.4g}") -> str:
-    """A pipe table (no extra dependency)."""
-
-    def cell(value: Any) -> str:
-        if isinstance(value, (float, np.floating)):
-            return "" if math.isnan(value) else float_format.format(value)
-        return str(value)
-
-    header = "| " + " | ".join(map(str, frame.columns)) + " |"
-    rule = "|" + "|".join("---" for _ in frame.columns) + "|"
-    body = ["| " + " | ".join(cell(v) for v in row) + " |" for row in frame.itertuples(index=False)]
-    return "\n".join([header, rule, *body]) + "\n"

@@ -48,6 +48,12 @@ def _coerce(tp: Any, value: Any, key: str) -> Any:
     origin = get_origin(tp)
     if dataclasses.is_dataclass(tp):
         return _build(tp, value, key)
+    if origin is dict and get_origin(get_args(tp)[1]) is dict:
+        # Named sets of overrides (variants).
+        require(isinstance(value, Mapping), key, "a mapping of names to override mappings", value)
+        return {
+            str(name): _coerce(get_args(tp)[1], v, f"{key}.{name}") for name, v in value.items()
+        }
     if origin is dict:
         # Dotted-path overrides: the keys are checked where they are applied.
         ok = isinstance(value, Mapping) and all(
@@ -136,6 +142,8 @@ def json_schema(tp: Any) -> dict[str, Any]:
         }
     if origin is Literal:
         return {"enum": list(get_args(tp))}
+    if origin is dict and get_origin(get_args(tp)[1]) is dict:
+        return {"type": "object", "additionalProperties": json_schema(get_args(tp)[1])}
     if origin is dict:
         return {
             "type": "object",

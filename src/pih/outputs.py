@@ -247,6 +247,29 @@ def read_trace(path: str | Path) -> Trace:
     return trace
 
 
+def read_validation_traces(paths: list[str]) -> dict[tuple[str, float], Trace]:
+    """Validation traces keyed by (variant, offset_m), from each file's sweep point."""
+    traces = {}
+    for path in paths:
+        point = read_provenance(path)["sweep_point"]
+        traces[(point["variant"], point["offset_m"])] = read_trace(path)
+    return traces
+
+
+def markdown_table(frame: pd.DataFrame, float_format: str = "{:.4g}") -> str:
+    """A pipe table (no extra dependency)."""
+
+    def cell(value: Any) -> str:
+        if isinstance(value, (float, np.floating)):
+            return "" if math.isnan(value) else float_format.format(value)
+        return str(value)
+
+    header = "| " + " | ".join(map(str, frame.columns)) + " |"
+    rule = "|" + "|".join("---" for _ in frame.columns) + "|"
+    body = ["| " + " | ".join(cell(v) for v in row) + " |" for row in frame.itertuples(index=False)]
+    return "\n".join([header, rule, *body]) + "\n"
+
+
 MARKDOWN_PROVENANCE = "<!-- pih.provenance "
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import copy
 import itertools
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -143,37 +144,55 @@ class ValidationSection:
     """The hydroelastic-vs-Whitney validation runs."""
 
     offsets_m: tuple[float, ...] = (0.0005, 0.001, 0.0015, 0.002)
-    contact_models: tuple[str, ...] = ("hydroelastic", "point")
     experiment: ValidationConfig = field(default_factory=ValidationConfig)
     # Scene settings of the validation runs that differ from the planner's scene, as dotted
     # paths under `scene` (e.g. "hole.fillet_radius_m"); docs/validation.md says why.
     scene_overrides: dict[str, Any] = field(default_factory=dict)
+    # Named validation settings, each a set of dotted scene paths applied over scene_overrides;
+    # every variant runs at every offset and goes into results/validation/variants.*.
+    variants: dict[str, dict[str, Any]] = field(
+        default_factory=lambda: {"hydroelastic": {}, "point": {"solver.contact_model": "point"}}
+    )
+    # The variants the comparison table and Figs 4, 5, A1, A2 show.
+    figure_variants: tuple[str, ...] = ("hydroelastic", "point")
 
     def validate(self, prefix: str = "") -> None:
         if not self.offsets_m or any(not (0 < o < 0.01) for o in self.offsets_m):
             raise ConfigError(
                 f"{prefix}offsets_m: {self.offsets_m!r}; expected lateral offsets in (0, 0.01) m"
             )
-        allowed = ("hydroelastic", "hydroelastic_with_fallback", "point")
-        bad = [m for m in self.contact_models if m not in allowed]
-        if not self.contact_models or bad:
+        bad = [name for name in self.variants if not re.fullmatch(r"[a-z0-9_]+", name)]
+        if not self.variants or bad:
             raise ConfigError(
-                f"{prefix}contact_models: {list(self.contact_models)!r}; expected a non-empty list of {list(allowed)}"
+                f"{prefix}variants: {bad or 'empty'}; expected at least one variant, each named "
+                "with lower-case letters, digits and underscores (the name is a directory)"
+            )
+        unknown = [name for name in self.figure_variants if name not in self.variants]
+        if not self.figure_variants or unknown:
+            raise ConfigError(
+                f"{prefix}figure_variants: {unknown or 'empty'}; expected names from "
+                f"{prefix}variants ({sorted(self.variants)})"
             )
         self.experiment.validate(prefix + "experiment.")
 
-    def scene(self, scene: Mapping[str, Any], contact_model: str) -> SceneConfig:
-        """The validation runs' scene: the study's scene with ``scene_overrides`` and the
-        contact model applied, and a hole deep enough for the whole insertion."""
-        point = {f"scene.{path}": value for path, value in self.scene_overrides.items()}
-        try:
-            data = override({"scene": scene}, point)
-            base = from_mapping(SceneConfig, data["scene"], "scene")
-            return validation_scene_config(
-                base.replace(solver__contact_model=contact_model), self.experiment
+    def scene(self, scene: Mapping[str, Any], variant: str) -> SceneConfig:
+        """One variant's scene: the study's scene with ``scene_overrides`` and then the variant's
+        overrides applied, and a hole deep enough for the whole insertion."""
+        if variant not in self.variants:
+            raise ConfigError(
+                f"validation.variants: no variant {variant!r} ({sorted(self.variants)})"
             )
-        except ConfigError as error:
-            raise ConfigError(f"validation.scene_overrides: {error}") from None
+        for key, overrides in (
+            ("validation.scene_overrides", self.scene_overrides),
+            (f"validation.variants.{variant}", {**self.scene_overrides, **self.variants[variant]}),
+        ):
+            point = {f"scene.{path}": value for path, value in overrides.items()}
+            try:
+                data = override({"scene": scene}, point)
+                base = from_mapping(SceneConfig, data["scene"], "scene")
+            except ConfigError as error:
+                raise ConfigError(f"{key}: {error}") from None
+        return validation_scene_config(base, self.experiment)
 
 
 def config_schema() -> dict[str, Any]:
@@ -266,8 +285,8 @@ def load_yaml_strictly(path: str) -> Any:
 def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> None:
     """Validate every section, every variant and every sweep point strictly, before any job."""
     section = from_mapping(ValidationSection, config["validation"], "validation")
-    for model in section.contact_models:
-        section.scene(config["scene"], model)
+    for variant in section.variants:
+        section.scene(config["scene"], variant)
     for name in config.get("variants") or {}:
         data = override(config, {"variant": name})
         from_mapping(SceneConfig, data["scene"], f"variants.{name}: scene")

@@ -20,10 +20,19 @@ import pandas as pd
 
 from pih import whitney
 from pih.config import require, require_positive
+from pih.outputs import markdown_table
 from pih.scene import PegInHoleScene, RobotTrajectory, Trace
 from pih.scene_config import SceneConfig
 
 ENTRANCE_SIDE_M = 1e-9
+TABLE2_FEATURES = {
+    "initial_f_x": "n",
+    "initial_f_z": "n",
+    "final_f_x": "n",
+    "final_f_z": "n",
+    "final_theta": "rad",
+}
+"""Table 2's features (the chamfer peak and the final values) and their units."""
 
 
 @dataclass(frozen=True)
@@ -239,13 +248,7 @@ def compare(
             column = f"{source}_{quantity}_{unit}"
             value = float(final[column].mean()) if complete else math.nan
             metrics[f"final_{quantity}_{source}_{unit}"] = value
-    for key, unit in (
-        ("initial_f_x", "n"),
-        ("initial_f_z", "n"),
-        ("final_f_x", "n"),
-        ("final_f_z", "n"),
-        ("final_theta", "rad"),
-    ):
+    for key, unit in TABLE2_FEATURES.items():
         metrics[f"rel_err_{key}_pct"] = _relative_error(
             metrics[f"{key}_sim_{unit}"], metrics[f"{key}_theory_{unit}"]
         )
@@ -306,10 +309,20 @@ def phase_markers(params: whitney.WhitneyParams) -> dict[str, float]:
     return {label: bounds[key] for label, key in labels.items() if key in bounds}
 
 
-COMPARISON_COLUMNS: dict[str, tuple[str, str]] = {
+SETTING_COLUMNS: dict[str, tuple[str, str]] = {
     "contact_model": ("", "Drake contact model"),
+    "discrete_contact_approximation": ("", "Drake's discrete contact solver"),
+    "fillet_radius_m": ("m", "chamfer-wall fillet radius"),
+    "margin_m": ("m", "hydroelastic margin"),
+    "hydroelastic_modulus_pa": ("Pa", "hydroelastic modulus of the peg"),
+    "point_stiffness_n_per_m": ("N/m", "point-contact stiffness"),
+    "time_step_s": ("s", "simulator time step"),
+}
+COMPARISON_COLUMNS: dict[str, tuple[str, str]] = {
+    "variant": ("", "validation variant (validation.variants)"),
+    **SETTING_COLUMNS,
     "alignment": ("", "depth alignment: chamfer_start (the paper's) or first_peak"),
-    "offset": ("", "lateral offset label, or 'pooled' for all offsets of the model"),
+    "offset": ("", "lateral offset label, or 'pooled' for all offsets of the variant"),
     "offset_m": ("m", "lateral offset eps0 of the spring base from the hole axis"),
     "trace_status": (
         "",
@@ -330,11 +343,17 @@ COMPARISON_COLUMNS: dict[str, tuple[str, str]] = {
     },
     **{
         f"rel_err_{key}_pct": ("%", f"relative error of the {key.replace('_', ' ')} (Table 2)")
-        for key in ("initial_f_x", "initial_f_z", "final_f_x", "final_f_z", "final_theta")
+        for key in TABLE2_FEATURES
     },
 }
+VARIANT_COLUMNS: dict[str, tuple[str, str]] = {
+    **COMPARISON_COLUMNS,
+    "complete": ("", "pooled rows: every offset ran through the final depth without divergence"),
+    "max_rel_err_pct": ("%", "pooled rows: the largest Table 2 error over all offsets"),
+    "chosen": ("", "pooled rows: the selection rule's choice for its contact model"),
+}
 ALIGNED_COLUMNS: dict[str, tuple[str, str]] = {
-    "contact_model": ("", "Drake contact model"),
+    "variant": ("", "validation variant"),
     "offset_m": ("m", "lateral offset eps0"),
     "depth_m": ("m", "aligned insertion depth l"),
     "f_x_n": ("N", "lateral contact force, Whitney's sign (negative toward the error side)"),
@@ -344,49 +363,148 @@ ALIGNED_COLUMNS: dict[str, tuple[str, str]] = {
 }
 
 
+def variant_settings(scene: SceneConfig) -> dict[str, float | str]:
+    """The contact settings a variant can change, as table columns."""
+    return {
+        "contact_model": scene.solver.contact_model,
+        "discrete_contact_approximation": scene.solver.discrete_contact_approximation,
+        "fillet_radius_m": scene.hole.fillet_radius_m,
+        "margin_m": scene.material.margin_m,
+        "hydroelastic_modulus_pa": scene.material.hydroelastic_modulus_pa,
+        "point_stiffness_n_per_m": scene.material.point_stiffness_n_per_m,
+        "time_step_s": scene.solver.time_step_s,
+    }
+
+
 def comparison_table(
-    traces: Mapping[tuple[str, float], Trace], scene: SceneConfig, config: ValidationConfig
+    traces: Mapping[tuple[str, float], Trace],
+    scenes: Mapping[str, SceneConfig],
+    config: ValidationConfig,
 ) -> tuple[pd.DataFrame, dict[tuple[str, float], Comparison]]:
-    """Table 2/3 rows per (contact model, alignment, offset) and a pooled row per model and
-    alignment; the comparisons (for figures) use the primary alignment. A trace that cannot be
+    """Table 2/3 rows per (variant, alignment, offset) and a pooled row per variant and
+    alignment; ``traces`` are keyed by (variant, offset) and ``scenes`` give each variant's
+    scene. The comparisons (for figures) use the primary alignment. A trace that cannot be
     compared (no chamfer contact) gets a row with its status and NaN metrics."""
     rows: list[dict] = []
     comparisons: dict[tuple[str, float], Comparison] = {}
-    for model in dict.fromkeys(m for m, _ in traces):
+    for variant in dict.fromkeys(v for v, _ in traces):
+        settings = {"variant": variant, **variant_settings(scenes[variant])}
         for alignment in ALIGNMENTS:
             aligned = []
-            for (trace_model, offset), trace in traces.items():
-                if trace_model != model:
+            for (trace_variant, offset), trace in traces.items():
+                if trace_variant != variant:
                     continue
                 row = {
-                    "contact_model": model,
+                    **settings,
                     "alignment": alignment,
                     "offset": f"{1e3 * offset:g} mm",
                     "offset_m": offset,
                 }
                 try:
-                    result = compare(trace, scene, offset, config, alignment)
+                    result = compare(trace, scenes[variant], offset, config, alignment)
                 except ValueError as error:
                     # The experiment puts the peg on the chamfer by construction: no measurable
                     # contact there is a broken setting, not a result.
                     rows.append({**row, "trace_status": "implausible", "note": str(error)})
                     continue
                 if alignment == ALIGNMENTS[0]:
-                    comparisons[(model, offset)] = result
+                    comparisons[(variant, offset)] = result
                 aligned.append(result.aligned)
                 rows.append({**row, **result.metrics, "note": trace.reason})
             pooled = pooled_correlation(aligned) if aligned else {}
-            rows.append(
-                {"contact_model": model, "alignment": alignment, "offset": "pooled", **pooled}
-            )
+            rows.append({**settings, "alignment": alignment, "offset": "pooled", **pooled})
     table = pd.DataFrame(rows).reindex(columns=list(COMPARISON_COLUMNS))
     table["note"] = table["note"].fillna("")
     return table, comparisons
 
 
+def choose_variants(table: pd.DataFrame, alignment: str = ALIGNMENTS[0]) -> pd.DataFrame:
+    """The variants table: ``table`` (from :func:`comparison_table`) with, on each pooled row,
+    whether the variant is *complete* (every offset ``ok`` through the final depth), its largest
+    Table 2 error, and whether it is *chosen*. The selection rule (docs/validation.md): per
+    contact model, the complete variant with the highest pooled r(F_x) under ``alignment``
+    (the paper's chamfer-start alignment); Table 2 errors and r(F_z) are reported, not used."""
+    out = table.copy()
+    per_offset = out[out["offset"] != "pooled"]
+    errors = [f"rel_err_{key}_pct" for key in TABLE2_FEATURES]
+    complete, worst = {}, {}
+    for (variant, align), runs in per_offset.groupby(["variant", "alignment"], sort=False):
+        complete[(variant, align)] = bool(
+            (runs["trace_status"] == "ok").all() and runs[errors[-1]].notna().all()
+        )
+        worst[(variant, align)] = float(runs[errors].max(axis=None))
+    pooled = out["offset"] == "pooled"
+    keys = list(zip(out["variant"], out["alignment"]))
+    out["complete"] = pd.array(
+        [complete.get(k, False) if p else None for k, p in zip(keys, pooled)], dtype="boolean"
+    )
+    out["max_rel_err_pct"] = [
+        worst.get(k, math.nan) if p else math.nan for k, p in zip(keys, pooled)
+    ]
+    out["chosen"] = False
+    candidates = out[pooled & (out["alignment"] == alignment) & out["complete"].fillna(False)]
+    family = candidates["contact_model"].replace({"hydroelastic_with_fallback": "hydroelastic"})
+    for _, group in candidates.groupby(family):
+        if group["r_f_x"].notna().any():
+            out.loc[group["r_f_x"].idxmax(), "chosen"] = True
+    return out.reindex(columns=list(VARIANT_COLUMNS))
+
+
+def variants_markdown(table: pd.DataFrame, overrides: Mapping[str, Mapping[str, object]]) -> str:
+    """``variants.md``: the pooled comparison per variant and alignment (with the rule's choice),
+    then every offset's Table 2/3 numbers."""
+    pooled = table[table["offset"] == "pooled"]
+    summary = pd.DataFrame(
+        {
+            "variant": pooled["variant"],
+            "changes": [
+                ", ".join(f"{k}={v}" for k, v in overrides.get(v, {}).items()) or "(base)"
+                for v in pooled["variant"]
+            ],
+            "alignment": pooled["alignment"],
+            "r(F_x)": pooled["r_f_x"],
+            "r(F_z)": pooled["r_f_z"],
+            "max Table 2 error (%)": pooled["max_rel_err_pct"],
+            "complete": pooled["complete"],
+            "chosen": pooled["chosen"].map({True: "**chosen**", False: ""}),
+        }
+    )
+    runs = table[table["offset"] != "pooled"]
+    detail = pd.DataFrame(
+        {
+            "variant": runs["variant"],
+            "alignment": runs["alignment"],
+            "ε0 (mm)": 1e3 * runs["offset_m"],
+            "status": runs["trace_status"],
+            "reached (mm)": 1e3 * runs["reached_depth_m"],
+            "shift (mm)": 1e3 * runs["alignment_shift_m"],
+            "r(F_x)": runs["r_f_x"],
+            "r(F_z)": runs["r_f_z"],
+            **{
+                f"{key.replace('_', ' ')} (%)": runs[f"rel_err_{key}_pct"]
+                for key in TABLE2_FEATURES
+            },
+        }
+    )
+    return f"""# Validation variants against Whitney's theory
+
+Every variant is the validation scene (`validation.scene_overrides`) with the listed changes,
+run at every offset. Pooled r is over all offsets' samples (paper Table 3); the Table 2 error is
+the largest relative error of the chamfer-peak and final values over all offsets. *complete*:
+every offset ran through the final depth without divergence.
+
+**Selection rule** (docs/validation.md): per contact model, the complete variant with the highest
+pooled r(F_x) under the paper's alignment (chamfer_start). Nothing is tuned per offset.
+
+{markdown_table(summary, "{:.4g}")}
+## Per offset
+
+{markdown_table(detail, "{:.3g}")}"""
+
+
 def aligned_curves(comparisons: Mapping[tuple[str, float], Comparison]) -> pd.DataFrame:
     """Every aligned simulated curve, in Whitney's conventions, as one table."""
     return pd.concat(
-        [c.simulated.assign(contact_model=m, offset_m=o) for (m, o), c in comparisons.items()],
+        [c.simulated.assign(variant=v, offset_m=o) for (v, o), c in comparisons.items()],
         ignore_index=True,
     )[list(ALIGNED_COLUMNS)]

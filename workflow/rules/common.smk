@@ -35,7 +35,8 @@ check_study(config, POINTS)
 LIBRARY_HASH = library_hash()
 
 VALIDATION_OFFSETS = config["validation"]["offsets_m"]
-CONTACT_MODELS = config["validation"]["contact_models"]
+VALIDATION_VARIANTS = list(config["validation"]["variants"])
+FIGURE_VARIANTS = config["validation"]["figure_variants"]
 FIGURE_POINTS = [
     pattern
     for pattern, row in zip(
@@ -50,7 +51,7 @@ FIGURE_POINTS = [
 
 wildcard_constraints:
     offset=r"[0-9.e+-]+",
-    model=r"[a-z_]+",
+    variant=r"[a-z0-9_]+",
 
 
 def record_companions(outputs, carrier):

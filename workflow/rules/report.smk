@@ -1,6 +1,7 @@
 rule summary:
     input:
         comparison=rules.validation_compare.output.table,
+        variants=rules.validation_variants.output.table,
         success=rules.planning_aggregate.output.success,
     output:
         summary=report(
@@ -22,6 +23,7 @@ rule summary:
             "planning: success per method and sweep level": "planning/summary/success.md",
             "planning: ablation": "planning/summary/ablation.md",
             "validation: every offset, model and alignment": "validation/comparison.md",
+            "validation: every variant (geometry, margin, solver, contact model)": "validation/variants.md",
             "provenance of every data file": "provenance.md",
         },
         library=LIBRARY_HASH,
@@ -32,12 +34,13 @@ rule summary:
 rule provenance_index:
     input:
         rules.validation_compare.output,
+        rules.validation_variants.output,
         rules.planning_aggregate.output,
         rules.summary.output,
         expand("results/whitney/offset_m~{offset}.parquet", offset=VALIDATION_OFFSETS),
         expand(
-            "results/validation/{model}/offset_m~{offset}.{ext}",
-            model=CONTACT_MODELS,
+            "results/validation/{variant}/offset_m~{offset}.{ext}",
+            variant=VALIDATION_VARIANTS,
             offset=VALIDATION_OFFSETS,
             ext=["parquet", "rrd"],
         ),

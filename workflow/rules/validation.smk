@@ -18,12 +18,12 @@ rule whitney_curve:
 
 rule validation_run:
     output:
-        trace="results/validation/{model}/offset_m~{offset}.parquet",
-        recording="results/validation/{model}/offset_m~{offset}.rrd",
+        trace="results/validation/{variant}/offset_m~{offset}.parquet",
+        recording="results/validation/{variant}/offset_m~{offset}.rrd",
     log:
-        "logs/validation/{model}/offset_m~{offset}.log",
+        "logs/validation/{variant}/offset_m~{offset}.log",
     benchmark:
-        "benchmarks/validation/{model}/offset_m~{offset}.tsv"
+        "benchmarks/validation/{variant}/offset_m~{offset}.tsv"
     conda:
         "../envs/pih.yaml"
     threads: 1
@@ -41,8 +41,8 @@ rule validation_run:
 rule validation_compare:
     input:
         traces=expand(
-            "results/validation/{model}/offset_m~{offset}.parquet",
-            model=CONTACT_MODELS,
+            "results/validation/{variant}/offset_m~{offset}.parquet",
+            variant=FIGURE_VARIANTS,
             offset=VALIDATION_OFFSETS,
         ),
         curves=expand(
@@ -101,3 +101,34 @@ rule validation_compare:
         library=LIBRARY_HASH,
     script:
         "../scripts/validation_compare.py"
+
+
+rule validation_variants:
+    input:
+        traces=expand(
+            "results/validation/{variant}/offset_m~{offset}.parquet",
+            variant=VALIDATION_VARIANTS,
+            offset=VALIDATION_OFFSETS,
+        ),
+    output:
+        table="results/validation/variants.parquet",
+        markdown=report(
+            "results/validation/variants.md",
+            caption="../report/variants.rst",
+            category="§2.4 Validation: hydroelastic vs Whitney",
+        ),
+    log:
+        "logs/validation/variants.log",
+    localrule: True
+    conda:
+        "../envs/pih.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    params:
+        scene=config["scene"],
+        validation=config["validation"],
+        library=LIBRARY_HASH,
+    script:
+        "../scripts/validation_variants.py"

@@ -1,7 +1,6 @@
 """A table of the provenance records of all outputs, for the report."""
 
-from pih.aggregate import markdown_table
-from pih.outputs import provenance_index, write_text
+from pih.outputs import markdown_table, provenance_index, write_text
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):

@@ -10,6 +10,7 @@ with logged(snakemake.log[0]):
     success = pd.read_parquet(snakemake.input.success)
     text = summary_markdown(
         pd.read_parquet(snakemake.input.comparison),
+        pd.read_parquet(snakemake.input.variants),
         success,
         read_provenance(snakemake.input.success)["code_version"],
         dict(snakemake.params.links),

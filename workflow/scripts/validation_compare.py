@@ -3,9 +3,14 @@
 import pandas as pd
 
 from pih import plots
-from pih.aggregate import markdown_table
 from pih.config import from_mapping
-from pih.outputs import read_provenance, read_trace, write_table, write_text
+from pih.outputs import (
+    markdown_table,
+    read_provenance,
+    read_validation_traces,
+    write_table,
+    write_text,
+)
 from pih.scene_config import SceneConfig
 from pih.study_config import ValidationSection
 from pih.validation import (
@@ -21,11 +26,9 @@ from pih.workflow import job_provenance, logged
 with logged(snakemake.log[0]):
     section = from_mapping(ValidationSection, snakemake.params.validation, "validation")
     scene = from_mapping(SceneConfig, snakemake.params.scene, "scene")
-    traces = {}
-    for path in snakemake.input.traces:
-        point = read_provenance(path)["sweep_point"]
-        traces[(point["contact_model"], point["offset_m"])] = read_trace(path)
-    table, comparisons = comparison_table(traces, scene, section.experiment)
+    traces = read_validation_traces(snakemake.input.traces)
+    scenes = {v: section.scene(snakemake.params.scene, v) for v, _ in traces}
+    table, comparisons = comparison_table(traces, scenes, section.experiment)
     theory = {
         read_provenance(path)["sweep_point"]["offset_m"]: pd.read_parquet(path)
         for path in snakemake.input.curves

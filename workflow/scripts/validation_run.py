@@ -1,4 +1,4 @@
-"""Quasi-static straight-down insertion in Drake at one offset and contact model (paper §2.4)."""
+"""Quasi-static straight-down insertion in Drake at one offset, in one validation variant (paper §2.4)."""
 
 from pih.config import from_mapping, to_mapping
 from pih.outputs import write_trace
@@ -10,13 +10,14 @@ from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
     section = from_mapping(ValidationSection, snakemake.params.validation, "validation")
-    scene = section.scene(snakemake.params.scene, snakemake.wildcards.model)
+    variant = snakemake.wildcards.variant
+    scene = section.scene(snakemake.params.scene, variant)
     offset = float(snakemake.wildcards.offset)
     trace = run_insertion(PegInHoleScene(scene), offset, section.experiment)
     record = job_provenance(
         snakemake,
         "validation_run",
-        point={"contact_model": snakemake.wildcards.model, "offset_m": offset},
+        point={"variant": variant, "offset_m": offset},
         config={"scene": to_mapping(scene), "validation": snakemake.params.validation},
         simulator=scene.simulator_settings(),
     )
