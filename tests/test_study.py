@@ -169,3 +169,18 @@ def test_validation_variants_apply_over_the_validation_scene_and_name_bad_keys()
         with pytest.raises(ConfigError, match=key):
             from_mapping(ValidationSection, broken, "validation")
     assert from_mapping(ValidationSection, data, "validation") == section
+
+
+def test_a_command_line_config_file_replaces_the_validation_variants_whole(tmp_path):
+    from pih.study_config import read_config_files
+
+    config = {
+        "validation": {"offsets_m": [0.001], "variants": {"a": {}, "b": {}, "c": {}}},
+        "sweep": {"planner.seed": [0, 1]},
+    }
+    own = tmp_path / "own.yaml"
+    own.write_text("validation:\n  variants: {b: {material.margin_m: 0.0}}\n")
+    read_config_files(config, [], [str(own)])
+    assert config["validation"]["variants"] == {"b": {"material.margin_m": 0.0}}
+    assert config["validation"]["offsets_m"] == [0.001]  # other keys merge as Snakemake does
+    assert config["sweep"] == {"planner.seed": [0, 1]}  # a file without a sweep keeps it

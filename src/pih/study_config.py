@@ -238,8 +238,9 @@ def config_schema() -> dict[str, Any]:
     }
 
 
-OWN_SECTIONS = ("sweep", "variants", "figure_point")
-"""Sections a config file given with --configfile replaces whole instead of merging."""
+OWN_SECTIONS = ("sweep", "variants", "figure_point", "validation.variants")
+"""Sections (dotted paths) a config file given with --configfile replaces whole instead of
+merging: they define *which* runs exist."""
 
 
 def read_config_files(
@@ -254,8 +255,12 @@ def read_config_files(
     for path in command_line_files:
         data = load_yaml_strictly(path) or {}
         for section in OWN_SECTIONS:
-            if section in data:
-                config[section] = data[section]
+            *parents, leaf = section.split(".")
+            source, target = data, config
+            for key in parents:
+                source, target = source.get(key) or {}, target.setdefault(key, {})
+            if isinstance(source, dict) and leaf in source:
+                target[leaf] = source[leaf]
 
 
 def load_yaml_strictly(path: str) -> Any:

@@ -11,13 +11,12 @@ from pih.aggregate import (
     SUCCESS_COLUMNS,
     cost_bands,
     level_columns,
-    markdown_table,
     run_tables,
     run_title,
     success_table,
 )
 from pih.config import from_mapping
-from pih.outputs import read_provenance, write_table, write_text
+from pih.outputs import markdown_table, read_provenance, write_table, write_text
 from pih.scene_config import SceneConfig
 from pih.workflow import job_provenance, logged
 
