@@ -458,7 +458,11 @@ def variants_markdown(table: pd.DataFrame, overrides: Mapping[str, Mapping[str, 
         {
             "variant": pooled["variant"],
             "changes": [
-                ", ".join(f"{k}={v}" for k, v in overrides.get(v, {}).items()) or "(base)"
+                ", ".join(
+                    f"{k}={x:g}" if isinstance(x, float) else f"{k}={x}"
+                    for k, x in overrides.get(v, {}).items()
+                )
+                or "(base)"
                 for v in pooled["variant"]
             ],
             "alignment": pooled["alignment"],
