@@ -22,7 +22,8 @@ QUANTITIES = {
     "f_z_n": ("$F_z$ (N)", "Insertion force $F_z$ vs depth (paper Fig. A1)"),
     "theta_rad": ("$\\theta$ (rad)", "Insertion angle vs depth (paper Fig. A2)"),
 }
-MODEL_STYLE = {
+# Line styles of the default figure variants (validation.figure_variants); others cycle.
+VARIANT_STYLE = {
     "hydroelastic": {"color": "tab:blue", "lw": 1.2},
     "point": {"color": "tab:orange", "lw": 1.0, "ls": "--"},
 }
@@ -77,14 +78,14 @@ def validation_curves(
         curve = theory[offset]
         ax.plot(1e3 * curve["depth_m"], curve[quantity], color="black", lw=1.5, label="Whitney")
         shown = (curve["depth_m"].min(), curve["depth_m"].max())
-        for (model, off), frame in simulated.items():
+        for (variant, off), frame in simulated.items():
             if off == offset:
                 frame = frame[frame["depth_m"].between(*shown)]
                 ax.plot(
                     1e3 * frame["depth_m"],
                     frame[quantity],
-                    label=f"Drake {model}",
-                    **MODEL_STYLE.get(model, {}),
+                    label=f"Drake {variant}",
+                    **VARIANT_STYLE.get(variant, {}),
                 )
         shown_markers = sorted(
             (depth, name)
@@ -123,7 +124,7 @@ def force_scatter(aligned: Mapping[tuple[str, float], pd.DataFrame]) -> plt.Figu
     offsets = sorted({off for _, off in aligned})
     offset_markers = "os^Dv"
     for ax, quantity in zip(axes, ("f_x_n", "f_z_n")):
-        for (model, offset), frame in aligned.items():
+        for (variant, offset), frame in aligned.items():
             k = offsets.index(offset)
             ax.plot(
                 frame[f"theory_{quantity}"],
@@ -131,8 +132,8 @@ def force_scatter(aligned: Mapping[tuple[str, float], pd.DataFrame]) -> plt.Figu
                 offset_markers[k % len(offset_markers)],
                 ms=1.5,
                 alpha=0.6,
-                color=MODEL_STYLE.get(model, {}).get("color", "grey"),
-                label=f"{model}, $\\epsilon_0$ = {1e3 * offset:g} mm",
+                color=VARIANT_STYLE.get(variant, {}).get("color", "grey"),
+                label=f"{variant}, $\\epsilon_0$ = {1e3 * offset:g} mm",
             )
         lo, hi = ax.get_xlim()
         ax.plot([lo, hi], [lo, hi], color="black", lw=0.8)
