@@ -86,8 +86,9 @@ def test_default_config_dry_run_lists_the_full_study(tmp_path):
     # One-level runs are made once per (start, seed), not once per outer rule.
     assert n_points == 11 * 2 * 2 * 5
     assert jobs["plan"] == 11 * (1 + 2) * 5
-    assert jobs["validation_run"] == 4 * 2
+    assert jobs["validation_run"] == 4 * len(config["validation"]["variants"])
     assert jobs["whitney_curve"] == 4
+    assert jobs["validation_variants"] == jobs["validation_compare"] == 1
 
 
 @pytest.mark.slow
