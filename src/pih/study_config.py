@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from pih.config import ConfigError, from_mapping, json_schema
+from pih.config import ConfigError, from_mapping, json_schema, to_mapping
 from pih.planner import PlannerConfig
 from pih.provenance import canonical_json
 from pih.scene_config import SceneConfig
@@ -285,6 +285,12 @@ def load_yaml_strictly(path: str) -> Any:
             mark = error.problem_mark or error.context_mark
             where = f", line {mark.line + 1}, column {mark.column + 1}" if mark else ""
             raise ConfigError(f"{path}{where}: not valid YAML ({error.problem})") from None
+
+
+def validation_scenes(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    """Each validation variant's resolved scene, as a plain mapping."""
+    section = from_mapping(ValidationSection, config["validation"], "validation")
+    return {v: to_mapping(section.scene(config["scene"], v)) for v in section.variants}
 
 
 def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> None:

@@ -3,7 +3,7 @@ from snakemake.utils import Paramspace, validate
 
 from pih.provenance import library_hash
 from pih.study_config import sweep_points
-from pih.study_config import check_study, read_config_files
+from pih.study_config import check_study, read_config_files, validation_scenes
 
 # No repeated YAML keys; a --configfile defines its own sweep (not merged onto the default's).
 read_config_files(config, workflow.configfiles, workflow.overwrite_configfiles or [])
@@ -36,6 +36,9 @@ LIBRARY_HASH = library_hash()
 
 VALIDATION_OFFSETS = config["validation"]["offsets_m"]
 VALIDATION_VARIANTS = list(config["validation"]["variants"])
+# Each validation run gets its variant's resolved scene as params, so a changed or added
+# variant re-runs its own runs only.
+VALIDATION_SCENES = validation_scenes(config)
 FIGURE_VARIANTS = config["validation"]["figure_variants"]
 FIGURE_POINTS = [
     pattern

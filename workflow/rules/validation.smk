@@ -31,8 +31,8 @@ rule validation_run:
         mem_mb=2000,
         runtime=15,
     params:
-        scene=config["scene"],
-        validation=config["validation"],
+        scene=lambda wildcards: VALIDATION_SCENES[wildcards.variant],
+        experiment=config["validation"]["experiment"],
         library=LIBRARY_HASH,
     script:
         "../scripts/validation_run.py"

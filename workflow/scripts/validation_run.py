@@ -1,24 +1,29 @@
 """Quasi-static straight-down insertion in Drake at one offset, in one validation variant (paper §2.4)."""
 
-from pih.config import from_mapping, to_mapping
+from pih.config import from_mapping
 from pih.outputs import write_trace
 from pih.recordings import record_insertion
 from pih.scene import PegInHoleScene
-from pih.study_config import ValidationSection
-from pih.validation import run_insertion
+from pih.scene_config import SceneConfig
+from pih.validation import ValidationConfig, run_insertion
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
-    section = from_mapping(ValidationSection, snakemake.params.validation, "validation")
     variant = snakemake.wildcards.variant
-    scene = section.scene(snakemake.params.scene, variant)
+    scene = from_mapping(SceneConfig, snakemake.params.scene, "scene")
+    experiment = from_mapping(
+        ValidationConfig, snakemake.params.experiment, "validation.experiment"
+    )
     offset = float(snakemake.wildcards.offset)
-    trace = run_insertion(PegInHoleScene(scene), offset, section.experiment)
+    trace = run_insertion(PegInHoleScene(scene), offset, experiment)
     record = job_provenance(
         snakemake,
         "validation_run",
         point={"variant": variant, "offset_m": offset},
-        config={"scene": to_mapping(scene), "validation": snakemake.params.validation},
+        config={
+            "scene": snakemake.params.scene,
+            "validation": {"variant": variant, "experiment": snakemake.params.experiment},
+        },
         simulator=scene.simulator_settings(),
     )
     write_trace(trace, snakemake.output.trace, record)
