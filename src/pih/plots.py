@@ -22,11 +22,16 @@ QUANTITIES = {
     "f_z_n": ("$F_z$ (N)", "Insertion force $F_z$ vs depth (paper Fig. A1)"),
     "theta_rad": ("$\\theta$ (rad)", "Insertion angle vs depth (paper Fig. A2)"),
 }
-# Line styles of the default figure variants (validation.figure_variants); others cycle.
+# Line styles of the figure variants (validation.figure_variants), by name or first word.
 VARIANT_STYLE = {
     "hydroelastic": {"color": "tab:blue", "lw": 1.2},
     "point": {"color": "tab:orange", "lw": 1.0, "ls": "--"},
 }
+
+
+def variant_style(variant: str) -> dict[str, object]:
+    """A variant's line style, by its name or its name's first word (``point_1e7`` → point)."""
+    return VARIANT_STYLE.get(variant, VARIANT_STYLE.get(variant.split("_")[0], {}))
 
 
 def save(
@@ -85,7 +90,7 @@ def validation_curves(
                     1e3 * frame["depth_m"],
                     frame[quantity],
                     label=f"Drake {variant}",
-                    **VARIANT_STYLE.get(variant, {}),
+                    **variant_style(variant),
                 )
         shown_markers = sorted(
             (depth, name)
@@ -132,7 +137,7 @@ def force_scatter(aligned: Mapping[tuple[str, float], pd.DataFrame]) -> plt.Figu
                 offset_markers[k % len(offset_markers)],
                 ms=1.5,
                 alpha=0.6,
-                color=VARIANT_STYLE.get(variant, {}).get("color", "grey"),
+                color=variant_style(variant).get("color", "grey"),
                 label=f"{variant}, $\\epsilon_0$ = {1e3 * offset:g} mm",
             )
         lo, hi = ax.get_xlim()
