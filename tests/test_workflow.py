@@ -274,6 +274,16 @@ def test_every_recording_verifies(smoke_run):
 def test_rerun_is_a_no_op_and_a_forced_rerun_gives_the_same_data(smoke_run):
     dry = snakemake(smoke_run, "-n", config=SMOKE)
     assert "Nothing to be done" in dry.stdout + dry.stderr
+    # A new validation variant or start position plans its own runs only.
+    more = json.loads(json.dumps(SMOKE))
+    more["validation"]["variants"]["stiff"] = {
+        "solver.contact_model": "point",
+        "material.point_stiffness_n_per_m": 1e7,
+    }
+    more["sweep"]["planner.start_x_m"].append(-0.033)
+    jobs = planned_jobs(snakemake(smoke_run, "-n", config=more))
+    assert jobs["validation_run"] == len(SMOKE["validation"]["offsets_m"])
+    assert jobs["plan"] == 1 + 2  # one-level and two bilevel rules at the new start
     target = min((smoke_run / "results" / "planning").glob("*bilevel*/rollouts.parquet"))
     before, before_record = pd.read_parquet(target), read_provenance(target)
     written = target.stat().st_mtime_ns

@@ -139,6 +139,14 @@ def resolve(
     )
 
 
+def resolved_sections(
+    config: Mapping[str, Any], point: Mapping[str, Any] | None = None
+) -> dict[str, dict[str, Any]]:
+    """:func:`resolve`'s scene and planner as plain mappings (a planning job's params)."""
+    scene, planner = resolve(config, point)
+    return {"scene": to_mapping(scene), "planner": to_mapping(planner)}
+
+
 @dataclass(frozen=True)
 class ValidationSection:
     """The hydroelastic-vs-Whitney validation runs."""

@@ -3,7 +3,12 @@ from snakemake.utils import Paramspace, validate
 
 from pih.provenance import library_hash
 from pih.study_config import sweep_points
-from pih.study_config import check_study, read_config_files, validation_scenes
+from pih.study_config import (
+    check_study,
+    read_config_files,
+    resolved_sections,
+    validation_scenes,
+)
 
 # No repeated YAML keys; a --configfile defines its own sweep (not merged onto the default's).
 read_config_files(config, workflow.configfiles, workflow.overwrite_configfiles or [])
@@ -27,6 +32,12 @@ PLANNING = Paramspace(
 def sweep_point(wildcards):
     """The dotted-path overrides of one planning job."""
     return {SWEEP_PATHS[k]: v for k, v in PLANNING.instance(wildcards).items()}
+
+
+def resolved_section(section):
+    """A planning job's resolved `scene` or `planner` section (its sweep point and variant
+    applied) as params: a changed value or variant re-runs the jobs it reaches, no others."""
+    return lambda wildcards: resolved_sections(config, sweep_point(wildcards))[section]
 
 
 check_study(config, POINTS)

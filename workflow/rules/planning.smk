@@ -14,9 +14,8 @@ rule plan:
         mem_mb=2000,
         runtime=30,
     params:
-        scene=config["scene"],
-        planner=config["planner"],
-        variants=config.get("variants", {}),
+        scene=resolved_section("scene"),
+        planner=resolved_section("planner"),
         point=sweep_point,
         library=LIBRARY_HASH,
     script:

@@ -1,22 +1,17 @@
 """One planning run (paper Algorithm 1) at one sweep point, then its deployment trials."""
 
-from pih.config import to_mapping
+from pih.config import from_mapping, to_mapping
 from pih.outputs import write_table
-from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS, Planner
+from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS, Planner, PlannerConfig
 from pih.recordings import record_planning
-from pih.study_config import resolve, seed_key
+from pih.scene_config import SceneConfig
+from pih.study_config import seed_key
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
-    point = dict(snakemake.params.point)
-    scene, planner_config = resolve(
-        {
-            "scene": snakemake.params.scene,
-            "planner": snakemake.params.planner,
-            "variants": snakemake.params.variants,
-        },
-        point,
-    )
+    point = dict(snakemake.params.point)  # already applied to the params' scene and planner
+    scene = from_mapping(SceneConfig, snakemake.params.scene, "scene")
+    planner_config = from_mapping(PlannerConfig, snakemake.params.planner, "planner")
     key = seed_key(point)
     planner = Planner.from_configs(scene, planner_config, key)
     # threads > 1 (--set-threads plan=N): an iteration's rollouts run in N processes.
