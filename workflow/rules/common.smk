@@ -36,7 +36,8 @@ def sweep_point(wildcards):
 
 def resolved_section(section):
     """A planning job's resolved `scene` or `planner` section (its sweep point and variant
-    applied) as params: a changed value or variant re-runs the jobs it reaches, no others."""
+    applied) as params: a changed value or variant re-runs the jobs it reaches, no others.
+    """
     return lambda wildcards: resolved_sections(config, sweep_point(wildcards))[section]
 
 
