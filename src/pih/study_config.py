@@ -190,13 +190,13 @@ class ValidationSection:
             raise ConfigError(
                 f"validation.variants: no variant {variant!r} ({sorted(self.variants)})"
             )
+        data = {"scene": scene}
         for key, overrides in (
             ("validation.scene_overrides", self.scene_overrides),
-            (f"validation.variants.{variant}", {**self.scene_overrides, **self.variants[variant]}),
+            (f"validation.variants.{variant}", self.variants[variant]),
         ):
-            point = {f"scene.{path}": value for path, value in overrides.items()}
             try:
-                data = override({"scene": scene}, point)
+                data = override(data, {f"scene.{path}": v for path, v in overrides.items()})
                 base = from_mapping(SceneConfig, data["scene"], "scene")
             except ConfigError as error:
                 raise ConfigError(f"{key}: {error}") from None
@@ -303,9 +303,7 @@ def validation_scenes(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
 
 def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> None:
     """Validate every section, every variant and every sweep point strictly, before any job."""
-    section = from_mapping(ValidationSection, config["validation"], "validation")
-    for variant in section.variants:
-        section.scene(config["scene"], variant)
+    validation_scenes(config)
     for name in config.get("variants") or {}:
         data = override(config, {"variant": name})
         from_mapping(SceneConfig, data["scene"], f"variants.{name}: scene")
