@@ -52,6 +52,8 @@ Balance = Literal["none", "first_iteration_median"]
 Redraw = Literal["per_iteration", "per_run"]
 OuterRule = Literal["explored_argmin", "deepest_explored"]
 GoalTilt = Literal["explored", "sensed"]
+DeployPolicy = Literal["final_mean", "last_inserted_mean"]
+DEPLOY_POLICIES: tuple[str, ...] = ("final_mean", "last_inserted_mean")
 COST_TERMS: tuple[str, ...] = ("regularization", "spring_energy", "hole_distance")
 MAX_START_HEIGHT_M = 0.15
 """Highest start allowed above the hole's top surface (the paper's Fig. 8 starts ≈0.1 m up)."""
@@ -172,6 +174,10 @@ class PlannerConfig:
     # After the last iteration, the learned policy (mean weights, no exploration) is deployed
     # this many times, each against a freshly sensed hole: the headline success metric.
     deploy_trials: int = 10
+    # Which weights are deployed: the optimizer's mean after the last iteration, or (evaluating
+    # the mean once per iteration, as dmpbbo does) the latest mean whose rollout inserted by
+    # the planner's own observation (``Planner.inserted``); the final mean if none did.
+    deploy_policy: DeployPolicy = "final_mean"
     # Stop early when the best J_inn of the last `convergence_window` iterations varies by less
     # than `convergence_tolerance` relative to its mean; 0 runs the whole budget (the paper's
     # bands compare runs over the same iterations).
@@ -199,6 +205,12 @@ class PlannerConfig:
         require(self.seed >= 0, prefix + "seed", "an integer >= 0", self.seed)
         require(
             self.deploy_trials >= 1, prefix + "deploy_trials", "an integer >= 1", self.deploy_trials
+        )
+        require(
+            self.deploy_policy in DEPLOY_POLICIES,
+            prefix + "deploy_policy",
+            f"one of {list(DEPLOY_POLICIES)}",
+            self.deploy_policy,
         )
         require(
             self.convergence_window >= 0,
@@ -367,7 +379,11 @@ class CostBalance:
 
 
 ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
-    "phase": ("", "train (Algorithm 1's rollouts) or deploy (the learned policy, no exploration)"),
+    "phase": (
+        "",
+        "train (Algorithm 1's rollouts), mean (the iteration's mean weights, no exploration; "
+        "deploy_policy last_inserted_mean) or deploy (the deployed policy's trials)",
+    ),
     "iteration": ("1", "iteration i (1-based); deploy rows: the iterations trained"),
     "rollout": ("1", "rollout index within the iteration (deploy: trial index)"),
     "cost": ("1", "inner cost J_inn (eq. 11, balanced if costs.balance); NaN for diverged"),
@@ -418,6 +434,7 @@ class RunRecord:
     best_paths: pd.DataFrame
     success_iteration: int | None
     deploy_success_rate: float
+    deployed_iteration: int | None  # whose evaluated mean was deployed; None: the final mean
     stop_reason: str
     seeds: dict[str, int]
     cost_divisors: list[float]
@@ -600,6 +617,14 @@ class Planner:
         )
         return trace, terms
 
+    def inserted(self, trace: Trace, sensed_hole: NDArray[np.float64]) -> bool:
+        """Whether a rollout ended with the peg in the hole, as the planner can observe it: the
+        tip within ``success_tolerance_m`` of the sensed depth y_H (exact, eq. 16b). Only a peg
+        inside the hole gets there; the top surface is a hole depth above."""
+        return bool(
+            trace.ok and trace.q_peg_bottom[-1][1] <= sensed_hole[1] + self.config.success_tolerance_m
+        )
+
     def target(self, outer: OuterLevel, sensed: NDArray[np.float64]) -> NDArray[np.float64]:
         """One-level aims at the sensed hole; bilevel where its outer level says."""
         return sensed.copy() if self.config.method == "one_level" else outer.goal(sensed)
@@ -628,32 +653,48 @@ class Planner:
         stop_reason = f"iteration budget ({cfg.iterations})"
         started = time.perf_counter()
         rollout_seconds = 0.0
+        evaluate_mean = cfg.deploy_policy == "last_inserted_mean"
+        policy, deployed_iteration = None, None
         sensed = self.sense_hole(noise)
         for iteration in range(1, cfg.iterations + 1):
             if iteration > 1 and cfg.sensing.redraw == "per_iteration":
                 sensed = self.sense_hole(noise)
             target = self.target(outer, sensed)
             sigma = optimizer.sigma
+            mean = optimizer.mean
             samples = optimizer.ask()
+            batch = [(target, w, sensed) for w in samples]
+            if evaluate_mean:
+                batch.append((target, mean, sensed))
             t0 = time.perf_counter()
-            traces, terms = zip(*rollouts.evaluate([(target, w, sensed) for w in samples]))
+            results = rollouts.evaluate(batch)
             rollout_seconds += time.perf_counter() - t0
+            traces, terms = zip(*results[: len(samples)])
             costs = balance.totals(list(terms))
             optimizer.tell(samples, costs)
             outer.observe(list(traces), self.cost_samples)
             recorder.add("train", iteration, sensed, target, traces, terms, costs, sigma)
+            if evaluate_mean:
+                trace, term = results[-1]
+                recorder.add("mean", iteration, sensed, target, [trace], [term],
+                             balance.totals([term]), 0.0)
+                if self.inserted(trace, sensed):
+                    policy, deployed_iteration = mean, iteration
             if progress:
                 progress(recorder.report(iteration, cfg.iterations, time.perf_counter() - started))
             if self._converged(recorder.best_costs):
                 stop_reason = f"converged at iteration {iteration}"
                 break
-        deployment = self.deploy(optimizer.mean, outer, balance, recorder, iteration, rollouts)
+        if policy is None:
+            policy, deployed_iteration = optimizer.mean, None
+        deployment = self.deploy(policy, outer, balance, recorder, iteration, rollouts)
         rollouts, best_paths = recorder.tables()
         return RunRecord(
             rollouts=rollouts,
             best_paths=best_paths,
             success_iteration=recorder.success_iteration,
             deploy_success_rate=deployment,
+            deployed_iteration=deployed_iteration,
             stop_reason=stop_reason,
             seeds=self.seeds,
             cost_divisors=balance.divisors.tolist(),
@@ -670,8 +711,9 @@ class Planner:
         iterations_trained: int,
         rollouts: RolloutWorkers,
     ) -> float:
-        """Run the learned mean weights (no exploration) ``deploy_trials`` times, each against a
-        freshly sensed hole; the fraction that inserts (true |P2 − H| ≤ tolerance)."""
+        """Run the deployed weights (no exploration; ``deploy_policy``) ``deploy_trials`` times,
+        each against a freshly sensed hole; the fraction that inserts (true |P2 − H| ≤
+        tolerance)."""
         rng = np.random.default_rng(self.seeds["deployment"])
         sensings = [self.sense_hole(rng) for _ in range(self.config.deploy_trials)]
         targets = [self.target(outer, sensed) for sensed in sensings]

@@ -21,6 +21,7 @@ with logged(snakemake.log[0]):
     summary = {
         "success_iteration": record.success_iteration,
         "deploy_success_rate": record.deploy_success_rate,
+        "deployed_iteration": record.deployed_iteration,
         "stop_reason": record.stop_reason,
         "cost_divisors": record.cost_divisors,
     }
