@@ -172,6 +172,7 @@ def test_first_iteration_goal_is_the_sensed_hole_for_both_methods(tiny_runs):
         (lambda c: c["outer"].update(goal_tilt="level"), r"planner\.outer\.goal_tilt"),
         (lambda c: c["sensing"].update(redraw="never"), r"planner\.sensing\.redraw"),
         (lambda c: c.update(deploy_trials=0), r"planner\.deploy_trials"),
+        (lambda c: c.update(deploy_policy="best_sample"), r"planner\.deploy_policy"),
         (lambda c: c.update(start_height_m=0.5), r"planner\.start_height_m"),
         (
             lambda c: c["costs"].update(balance="first_iteration_median", spring_energy=0.0),
@@ -268,6 +269,50 @@ def test_per_run_redraw_senses_the_hole_once():
     rows = Planner.from_configs(SceneConfig(), once).run().rollouts
     train = rows[rows["phase"] == "train"]
     assert train["sensed_hole_x_m"].nunique() == 1
+
+
+@pytest.mark.parametrize("inserted_at", [set(), {1}, {1, 2}])
+def test_last_inserted_mean_deploys_the_latest_mean_that_inserted(
+    tiny_runs, monkeypatch, inserted_at
+):
+    config = short_config(iterations=2, population_size=3, deploy_policy="last_inserted_mean")
+    planner = Planner.from_configs(SceneConfig(), config)
+    calls = iter([1, 2])
+    monkeypatch.setattr(planner, "inserted", lambda trace, sensed: next(calls) in inserted_at)
+    record = planner.run()
+    rows = record.rollouts
+    train = rows[rows["phase"] == "train"].reset_index(drop=True)
+    # Evaluating the mean draws nothing: training is the final_mean run's, rollout for rollout.
+    reference = tiny_runs[0].rollouts
+    pd.testing.assert_frame_equal(train, reference[reference["phase"] == "train"])
+    means = rows[rows["phase"] == "mean"]
+    assert means["iteration"].tolist() == [1, 2] and (means["sigma"] == 0).all()
+    # The first mean is W* = 0; each later one is the previous update's.
+    assert means["cost_regularization"].iloc[0] == 0.0
+    deployed = rows[rows["phase"] == "deploy"]["cost_regularization"]
+    assert record.deployed_iteration == (max(inserted_at) if inserted_at else None)
+    if record.deployed_iteration is None:
+        assert (
+            deployed.iloc[0]
+            == reference[reference["phase"] == "deploy"]["cost_regularization"].iloc[0]
+        )
+    else:
+        chosen = means[means["iteration"] == record.deployed_iteration]
+        assert np.allclose(deployed, chosen["cost_regularization"].iloc[0])
+
+
+def test_inserted_is_judged_by_the_sensed_depth_only():
+    planner = Planner.from_configs(SceneConfig(), replace(PlannerConfig(), iterations=1))
+    hole = planner.scene.hole_pose
+    sensed = np.array([hole[0] + 0.004, hole[1], hole[2]])
+    at_depth = _trace_at([[0.0, 0.0, 0.0], [hole[0], hole[1] + 0.0009, 0.0]])
+    assert planner.inserted(at_depth, sensed)
+    assert not planner.inserted(
+        _trace_at([[0.0, 0.0, 0.0], [hole[0], hole[1] + 0.0011, 0.0]]), sensed
+    )
+    on_surface = _trace_at([[0.0, 0.0, 0.0], [-0.03, hole[1] + 0.01, 0.0]])
+    assert not planner.inserted(on_surface, sensed)
+    assert not planner.inserted(dataclasses.replace(at_depth, status="diverged"), sensed)
 
 
 def _trace_at(poses: np.ndarray, overlap: float = 0.0):

@@ -5,7 +5,13 @@ import math
 import pandas as pd
 import pytest
 
-from pih.aggregate import cost_bands, final_success_fraction, success_table, wilson_interval
+from pih.aggregate import (
+    ablation_table,
+    cost_bands,
+    final_success_fraction,
+    success_table,
+    wilson_interval,
+)
 from pih.config import ConfigError, to_mapping
 from pih.planner import PlannerConfig
 from pih.scene_config import SceneConfig
@@ -56,6 +62,7 @@ def test_bands_and_success_table_per_method_and_dimension():
             "first_success_iteration": [4, None, None],
             "goal_iteration": [3, None, 10],
             "final_success_fraction": [1.0, 0.0, 0.5],
+            "mean_policy_last10_success": [0.8, 0.4, math.nan],
             "diverged_fraction": [0.1, 0.0, 0.2],
             "retried_fraction": [0.04, 0.02, 0.0],
             "deploy_diverged_fraction": [0.0, 0.5, 1.0],
@@ -71,11 +78,16 @@ def test_bands_and_success_table_per_method_and_dimension():
     assert math.isnan(overall.loc["a", "median_first_success_iteration"])
     assert overall.loc["b", "median_goal_iteration"] == 10
     assert overall.loc["b", "mean_last10_success_fraction"] == 0.5
+    assert overall.loc["a", "mean_policy_last10_success_fraction"] == pytest.approx(0.6)
+    assert math.isnan(overall.loc["b", "mean_policy_last10_success_fraction"])
     assert overall.loc["a", "deploy_diverged_fraction"] == 0.25
     assert overall.loc["a", "retried_rollout_fraction"] == pytest.approx(0.03)
     assert overall.loc["a", "first_success_rate"] == 0.5
     seed_one = table[(table["dimension"] == "planner.seed") & (table["level"] == "1")]
     assert seed_one["method"].tolist() == ["a"] and seed_one["runs"].tolist() == [1]
+    # The ablation table pools the replicates (seeds, starts) and keeps the compared dimensions.
+    dims = pd.DataFrame({"dimension": ["all", "planner.seed", "variant", "planner.start_x_m"]})
+    assert ablation_table(dims)["dimension"].tolist() == ["all", "variant"]
 
 
 def test_sweep_points_skip_repeated_one_level_runs_and_reject_bad_sweeps():

@@ -37,6 +37,22 @@ def final_success_fraction(rollouts: pd.DataFrame, last: int = 10) -> float:
     return float(best["success"].tail(last).mean())
 
 
+def best_training_rows(rollouts: pd.DataFrame) -> pd.DataFrame:
+    """Each training iteration's lowest-cost rollout, in iteration order."""
+    return rollouts[(rollouts["phase"] == "train") & rollouts["is_best"]].sort_values("iteration")
+
+
+REPLICATE_KEYS = ("planner.start_x_m", "planner.seed")
+"""Sweep dimensions that replicate a comparison rather than define one (the ablation table
+pools over them)."""
+
+
+def ablation_table(success: pd.DataFrame) -> pd.DataFrame:
+    """The rows of :func:`success_table` split by the compared dimensions (e.g. ``variant``) and
+    the overall rows; the replicate dimensions (start, seed) are pooled."""
+    return success[~success["dimension"].isin(REPLICATE_KEYS)]
+
+
 def variant(planner: Mapping[str, Any]) -> str:
     """A run's method as the study compares it: ``one_level``, or ``bilevel/<outer rule>``."""
     method = planner["method"]
@@ -57,13 +73,17 @@ def run_summary(rollouts: pd.DataFrame, tolerance_m: float, time_step_s: float) 
     """One planning run's outcome: deployment success (the headline) and the training view."""
     train = rollouts[rollouts["phase"] == "train"]
     deploy = rollouts[rollouts["phase"] == "deploy"]
-    best = train[train["is_best"]].sort_values("iteration")
+    means = rollouts[rollouts["phase"] == "mean"].sort_values("iteration")
+    best = best_training_rows(rollouts)
     successes = best.loc[best["success"], "iteration"]
     goal_reached = best.loc[best["target_hole_error_m"] <= tolerance_m, "iteration"]
     return {
         "deploy_success_rate": float(deploy["success"].mean()) if len(deploy) else math.nan,
         "final_iteration_success": bool(best["success"].iloc[-1]),
         "final_success_fraction": final_success_fraction(train),
+        "mean_policy_last10_success": float(means["success"].tail(10).mean())
+        if len(means)
+        else math.nan,
         "first_success_iteration": int(successes.iloc[0]) if len(successes) else None,
         "goal_iteration": int(goal_reached.iloc[0]) if len(goal_reached) else None,
         "diverged_fraction": float((train["status"] != "ok").mean()),
@@ -108,6 +128,10 @@ SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
         "1",
         "mean fraction of the last 10 iterations whose best rollout succeeded",
     ),
+    "mean_policy_last10_success_fraction": (
+        "1",
+        "mean fraction of the last 10 iterations whose mean weights inserted (NaN: not evaluated)",
+    ),
     "first_success_rate": ("1", "runs whose best rollout succeeded in some iteration"),
     "median_first_success_iteration": ("1", "median first iteration with a successful best"),
     "median_goal_iteration": (
@@ -139,8 +163,7 @@ def run_tables(
         tags = {"method": variant(planner), "run": path.parent.name}
         point = record["sweep_point"]
         tags.update({key: str(point[key]) for key in split_keys(sweep_keys)})
-        train = rollouts[(rollouts["phase"] == "train") & rollouts["is_best"]]
-        bests.append(train[["iteration", "cost"]].assign(**tags))
+        bests.append(best_training_rows(rollouts)[["iteration", "cost"]].assign(**tags))
         step = record["config"]["scene"]["solver"]["time_step_s"]
         summaries.append({**tags, **run_summary(rollouts, planner["success_tolerance_m"], step)})
     return pd.concat(bests, ignore_index=True), pd.DataFrame(summaries)
@@ -208,6 +231,9 @@ def success_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFram
                     "deploy_ci_high": high,
                     "final_iteration_success_rate": float(runs["final_iteration_success"].mean()),
                     "mean_last10_success_fraction": float(runs["final_success_fraction"].mean()),
+                    "mean_policy_last10_success_fraction": float(
+                        runs["mean_policy_last10_success"].mean()
+                    ),
                     "first_success_rate": float(runs["first_success_iteration"].notna().mean()),
                     "median_first_success_iteration": _median_or_never(
                         runs["first_success_iteration"], n

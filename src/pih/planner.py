@@ -381,8 +381,7 @@ class CostBalance:
 ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
     "phase": (
         "",
-        "train (Algorithm 1's rollouts), mean (the iteration's mean weights, no exploration; "
-        "deploy_policy last_inserted_mean) or deploy (the deployed policy's trials)",
+        "train (Algorithm 1), mean (the iteration's mean weights, if evaluated) or deploy",
     ),
     "iteration": ("1", "iteration i (1-based); deploy rows: the iterations trained"),
     "rollout": ("1", "rollout index within the iteration (deploy: trial index)"),
@@ -622,7 +621,8 @@ class Planner:
         tip within ``success_tolerance_m`` of the sensed depth y_H (exact, eq. 16b). Only a peg
         inside the hole gets there; the top surface is a hole depth above."""
         return bool(
-            trace.ok and trace.q_peg_bottom[-1][1] <= sensed_hole[1] + self.config.success_tolerance_m
+            trace.ok
+            and trace.q_peg_bottom[-1][1] <= sensed_hole[1] + self.config.success_tolerance_m
         )
 
     def target(self, outer: OuterLevel, sensed: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -676,8 +676,9 @@ class Planner:
             recorder.add("train", iteration, sensed, target, traces, terms, costs, sigma)
             if evaluate_mean:
                 trace, term = results[-1]
-                recorder.add("mean", iteration, sensed, target, [trace], [term],
-                             balance.totals([term]), 0.0)
+                recorder.add(
+                    "mean", iteration, sensed, target, [trace], [term], balance.totals([term]), 0.0
+                )
                 if self.inserted(trace, sensed):
                     policy, deployed_iteration = mean, iteration
             if progress:

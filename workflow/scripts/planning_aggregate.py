@@ -9,6 +9,8 @@ from pih.aggregate import (
     BAND_COLUMNS,
     BEST_COST_COLUMNS,
     SUCCESS_COLUMNS,
+    ablation_table,
+    best_training_rows,
     cost_bands,
     level_columns,
     run_tables,
@@ -25,7 +27,7 @@ with logged(snakemake.log[0]):
     runs, summaries = run_tables(snakemake.input.rollouts, keys)
     bands = cost_bands(runs, keys)
     success = success_table(summaries, keys)
-    ablation = success[~success["dimension"].isin(["planner.start_x_m", "planner.seed"])]
+    ablation = ablation_table(success)
     record = job_provenance(
         snakemake, "planning_aggregate", config={"sweep": snakemake.params.sweep}
     )
@@ -51,7 +53,7 @@ with logged(snakemake.log[0]):
         rollouts_file = Path(source).with_name("rollouts.parquet")
         run = read_provenance(rollouts_file)
         rollouts = pd.read_parquet(rollouts_file)
-        goals = rollouts[(rollouts["phase"] == "train") & rollouts["is_best"]]
+        goals = best_training_rows(rollouts)
         title = run_title(run["sweep_point"], run["config"]["planner"])
         figure = plots.best_paths_figure(pd.read_parquet(source), scene.hole, title, goals)
         plots.save(figure, png, provenance=record)
