@@ -238,7 +238,15 @@ def test_seeds_differ_between_sweep_points_and_are_shared_by_the_methods():
             "planner.outer.rule": "deepest_explored",
         }
     )
-    assert start_a == one_level == other_rule != start_b
+    other_policy = seed_key(
+        {
+            "planner.start_x_m": -0.031,
+            "planner.seed": 0,
+            "planner.method": "bilevel",
+            "planner.deploy_policy": "last_inserted_mean",
+        }
+    )
+    assert start_a == one_level == other_rule == other_policy != start_b
     seeds_a, seeds_b = run_seeds(config, start_a), run_seeds(config, start_b)
     assert set(seeds_a) == {"noise", "exploration", "deployment"}
     assert len(set(seeds_a.values())) == 3

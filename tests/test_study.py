@@ -100,6 +100,14 @@ def test_sweep_points_skip_repeated_one_level_runs_and_reject_bad_sweeps():
     assert len(points) == 2 * (1 + 2)
     one_level = [p for p in points if p["planner.method"] == "one_level"]
     assert {p["planner.outer.rule"] for p in one_level} == {"explored_argmin"}
+    # One-level depends on which weights it deploys: one run per deploy policy.
+    policies = sweep_points(
+        {
+            "planner.method": ["one_level", "bilevel"],
+            "planner.deploy_policy": ["final_mean", "last_inserted_mean"],
+        }
+    )
+    assert len(policies) == 4
     with pytest.raises(ConfigError, match=r"sweep\.planner\.seed: repeated level"):
         sweep_points({"planner.seed": [0, 0]})
     with pytest.raises(ConfigError, match="planner.seed.*planner.optimizer.seed"):
