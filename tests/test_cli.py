@@ -58,6 +58,7 @@ def test_plot_draws_one_planning_run(tmp_path, capsys):
         PlannerConfig(),
         iterations=2,
         deploy_trials=1,
+        deploy_policy="last_inserted_mean",  # the figure also draws the mean's rollouts
         settle_s=0.1,
         dmp=DmpConfig(duration_s=1.0),
         optimizer=OptimizerConfig(population_size=2),

@@ -237,13 +237,27 @@ def deploy_success_figure(table: pd.DataFrame) -> plt.Figure:
 def run_figure(
     rollouts: pd.DataFrame, best_paths: pd.DataFrame, hole: HoleConfig, title: str
 ) -> plt.Figure:
-    """One planning run: best J_inn per iteration, the goal's true distance from the hole, and
-    the best peg-tip paths (darker = later), with the deployment outcome in the title."""
+    """One planning run: best J_inn per iteration (and the mean weights' J_inn where evaluated),
+    the goal's true distance from the hole, and the best peg-tip paths (darker = later), with the
+    deployment outcome in the title."""
     train = rollouts[rollouts["phase"] == "train"]
     best = train[train["is_best"]].sort_values("iteration")
     deploy = rollouts[rollouts["phase"] == "deploy"]
     fig, (cost_ax, goal_ax, path_ax) = plt.subplots(1, 3, figsize=(14, 4))
-    cost_ax.plot(best["iteration"], best["cost"], marker=".")
+    cost_ax.plot(best["iteration"], best["cost"], marker=".", label="best rollout")
+    means = rollouts[rollouts["phase"] == "mean"]
+    if len(means):  # deploy_policy last_inserted_mean: the mean weights' own rollout
+        inserted = means[means["success"]]
+        cost_ax.plot(means["iteration"], means["cost"], color="tab:orange", lw=0.8, label="mean")
+        cost_ax.plot(
+            inserted["iteration"],
+            inserted["cost"],
+            "o",
+            color="tab:orange",
+            ms=3,
+            label="mean inserted",
+        )
+        cost_ax.legend(fontsize=8)
     if (best["cost"] > 0).any():
         cost_ax.set_yscale("log")
     cost_ax.set_xlabel("iteration")
