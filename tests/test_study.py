@@ -37,6 +37,12 @@ def test_wilson_interval_known_values():
     low, high = wilson_interval(0, 11)
     assert low == pytest.approx(0.0, abs=1e-12) and high == pytest.approx(0.2588, abs=1e-4)
     assert all(math.isnan(v) for v in wilson_interval(0, 0))
+    # Every rate lies inside its interval, exactly at the ends (a figure's error bars need it).
+    for trials in range(1, 60):
+        for successes in range(trials + 1):
+            low, high = wilson_interval(successes, trials)
+            assert low <= successes / trials <= high
+    assert wilson_interval(6, 6)[1] == 1.0 and wilson_interval(0, 11)[0] == 0.0
 
 
 def test_bands_and_success_table_per_method_and_dimension():

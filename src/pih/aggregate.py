@@ -28,7 +28,8 @@ def wilson_interval(successes: float, trials: int, z: float = 1.96) -> tuple[flo
     half = (
         z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / (1 + z * z / trials)
     )
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    # Clamped so that rounding never puts p outside its interval (at p = 0 or 1 it is exact).
+    return (min(p, max(0.0, centre - half)), max(p, min(1.0, centre + half)))
 
 
 def final_success_fraction(rollouts: pd.DataFrame, last: int = 10) -> float:
