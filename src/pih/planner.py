@@ -687,7 +687,7 @@ class Planner:
                 stop_reason = f"converged at iteration {iteration}"
                 break
         if policy is None:
-            policy, deployed_iteration = optimizer.mean, None
+            policy = optimizer.mean
         deployment = self.deploy(policy, outer, balance, recorder, iteration, rollouts)
         rollouts, best_paths = recorder.tables()
         return RunRecord(
