@@ -88,7 +88,7 @@ def short_config(iterations: int, population_size: int, **changes) -> PlannerCon
 
 @pytest.fixture(scope="module")
 def tiny_runs():
-    config = short_config(iterations=2, population_size=3)
+    config = short_config(iterations=2, population_size=3, deploy_policy="final_mean")
     scene = SceneConfig()
     first = Planner.from_configs(scene, config).run()
     second = Planner.from_configs(scene, config).run()
@@ -98,7 +98,7 @@ def tiny_runs():
 
 def test_rollouts_in_worker_processes_give_the_same_run(tiny_runs):
     first, _, _ = tiny_runs
-    config = short_config(iterations=2, population_size=3)
+    config = short_config(iterations=2, population_size=3, deploy_policy="final_mean")
     parallel = Planner.from_configs(SceneConfig(), config).run(workers=2)
     pd.testing.assert_frame_equal(parallel.rollouts, first.rollouts)
     pd.testing.assert_frame_equal(parallel.best_paths, first.best_paths)
@@ -117,6 +117,8 @@ def test_run_record_is_complete_and_deterministic(tiny_runs):
     assert deploy["rollout"].tolist() == list(range(len(deploy)))
     assert not deploy["is_best"].any() and (deploy["sigma"] == 0).all()
     assert first.deploy_success_rate == pytest.approx(deploy["success"].mean())
+    assert first.final_mean_deploy_success_rate == first.deploy_success_rate
+    assert not rollouts["phase"].isin(["mean", "deploy_final_mean"]).any()
     ok = rollouts["status"] == "ok"
     assert np.allclose(
         rollouts.loc[ok, "cost"],
@@ -263,7 +265,8 @@ def test_two_starts_draw_different_sensed_holes_and_both_methods_the_same():
         planner = Planner.from_configs(
             scene, replace(config, start_x_m=start_x_m, method=method), seed_key(point)
         )
-        return planner.run().rollouts["sensed_hole_x_m"].tolist()
+        rows = planner.run().rollouts
+        return rows.loc[rows["phase"] == "train", "sensed_hole_x_m"].tolist()
 
     bilevel = sensed(-0.031, "bilevel")
     assert bilevel == sensed(-0.031, "one_level")
@@ -307,6 +310,11 @@ def test_last_inserted_mean_deploys_the_latest_mean_that_inserted(
     else:
         chosen = means[means["iteration"] == record.deployed_iteration]
         assert np.allclose(deployed, chosen["cost_regularization"].iloc[0])
+    # The final mean is deployed too, on the same sensed holes: the final_mean run's deployment.
+    final = rows[rows["phase"] == "deploy_final_mean"].drop(columns="phase")
+    expected = reference[reference["phase"] == "deploy"].drop(columns="phase")
+    pd.testing.assert_frame_equal(final.reset_index(drop=True), expected.reset_index(drop=True))
+    assert record.final_mean_deploy_success_rate == tiny_runs[0].deploy_success_rate
 
 
 def test_inserted_is_judged_by_the_sensed_depth_only():

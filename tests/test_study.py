@@ -64,6 +64,7 @@ def test_bands_and_success_table_per_method_and_dimension():
             "method": ["a", "a", "b"],
             "planner.seed": ["0", "1", "0"],
             "deploy_success_rate": [1.0, 0.5, 0.0],
+            "final_mean_deploy_success_rate": [0.5, 0.5, math.nan],
             "final_iteration_success": [True, False, False],
             "first_success_iteration": [4, None, None],
             "goal_iteration": [3, None, 10],
@@ -80,6 +81,9 @@ def test_bands_and_success_table_per_method_and_dimension():
     assert (overall.loc["a", "deploy_ci_low"], overall.loc["a", "deploy_ci_high"]) == pytest.approx(
         wilson_interval(1.5, 2)
     )
+    assert overall.loc["a", "final_mean_deploy_success_rate"] == 0.5
+    assert overall.loc["a", "final_mean_deploy_ci_high"] == pytest.approx(wilson_interval(1, 2)[1])
+    assert math.isnan(overall.loc["b", "final_mean_deploy_ci_low"])
     # One of two runs never reached success: the median is "never" (NaN), not the other run's.
     assert math.isnan(overall.loc["a", "median_first_success_iteration"])
     assert overall.loc["b", "median_goal_iteration"] == 10

@@ -78,6 +78,7 @@ def _success() -> pd.DataFrame:
             "deploy_success_rate": [0.9, 0.2, 0.0],
             "deploy_ci_low": [0.6, 0.05, 0.0],
             "deploy_ci_high": [0.98, 0.5, 0.8],
+            "final_mean_deploy_success_rate": [0.7, 0.1, 0.0],
             "median_goal_iteration": [6.0, np.nan, np.nan],
         }
     )
@@ -88,6 +89,7 @@ def test_planning_rows_are_the_overall_rows_with_the_papers_claim():
     assert rows["method"].tolist() == ["bilevel/deepest_explored", "one_level"]
     assert rows["paper"].tolist()[0].startswith("100 %")
     assert rows["deployment_success"].tolist() == [0.9, 0.2]
+    assert rows["final_mean_deployment_success"].tolist() == [0.7, 0.1]
 
 
 def test_summary_names_the_code_version_and_links_the_tables():

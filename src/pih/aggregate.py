@@ -70,16 +70,26 @@ def run_title(point: Mapping[str, Any], planner: Mapping[str, Any]) -> str:
     return ", ".join([variant(planner), *levels])
 
 
-def run_summary(rollouts: pd.DataFrame, tolerance_m: float, time_step_s: float) -> dict[str, Any]:
+def run_summary(
+    rollouts: pd.DataFrame, tolerance_m: float, time_step_s: float, deploy_policy: str
+) -> dict[str, Any]:
     """One planning run's outcome: deployment success (the headline) and the training view."""
     train = rollouts[rollouts["phase"] == "train"]
     deploy = rollouts[rollouts["phase"] == "deploy"]
+    final_mean = (
+        deploy
+        if deploy_policy == "final_mean"
+        else rollouts[rollouts["phase"] == "deploy_final_mean"]
+    )
     means = rollouts[rollouts["phase"] == "mean"].sort_values("iteration")
     best = best_training_rows(rollouts)
     successes = best.loc[best["success"], "iteration"]
     goal_reached = best.loc[best["target_hole_error_m"] <= tolerance_m, "iteration"]
     return {
         "deploy_success_rate": float(deploy["success"].mean()) if len(deploy) else math.nan,
+        "final_mean_deploy_success_rate": float(final_mean["success"].mean())
+        if len(final_mean)
+        else math.nan,
         "final_iteration_success": bool(best["success"].iloc[-1]),
         "final_success_fraction": final_success_fraction(train),
         "mean_policy_last10_success": float(means["success"].tail(10).mean())
@@ -124,6 +134,12 @@ SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
     ),
     "deploy_ci_low": ("1", "95 % Wilson interval over runs (each run one observation), low"),
     "deploy_ci_high": ("1", "95 % Wilson interval over runs, high"),
+    "final_mean_deploy_success_rate": (
+        "1",
+        "the same for the final mean weights, deployed on the same sensed holes (NaN: not run)",
+    ),
+    "final_mean_deploy_ci_low": ("1", "95 % Wilson interval over runs, low"),
+    "final_mean_deploy_ci_high": ("1", "95 % Wilson interval over runs, high"),
     "final_iteration_success_rate": ("1", "runs whose last iteration's best rollout succeeded"),
     "mean_last10_success_fraction": (
         "1",
@@ -166,7 +182,14 @@ def run_tables(
         tags.update({key: str(point[key]) for key in split_keys(sweep_keys)})
         bests.append(best_training_rows(rollouts)[["iteration", "cost"]].assign(**tags))
         step = record["config"]["scene"]["solver"]["time_step_s"]
-        summaries.append({**tags, **run_summary(rollouts, planner["success_tolerance_m"], step)})
+        summaries.append(
+            {
+                **tags,
+                **run_summary(
+                    rollouts, planner["success_tolerance_m"], step, planner["deploy_policy"]
+                ),
+            }
+        )
     return pd.concat(bests, ignore_index=True), pd.DataFrame(summaries)
 
 
@@ -221,15 +244,20 @@ def success_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFram
         rows = []
         for method, runs in part.groupby("method"):
             n = len(runs)
-            rate = float(runs["deploy_success_rate"].mean())
-            low, high = wilson_interval(rate * n, n)
+            rates = {}
+            for prefix in ("", "final_mean_"):
+                rate = float(runs[f"{prefix}deploy_success_rate"].mean())
+                low, high = wilson_interval(rate * n, n) if math.isfinite(rate) else (math.nan,) * 2
+                rates |= {
+                    f"{prefix}deploy_success_rate": rate,
+                    f"{prefix}deploy_ci_low": low,
+                    f"{prefix}deploy_ci_high": high,
+                }
             rows.append(
                 {
                     "method": method,
                     "runs": n,
-                    "deploy_success_rate": rate,
-                    "deploy_ci_low": low,
-                    "deploy_ci_high": high,
+                    **rates,
                     "final_iteration_success_rate": float(runs["final_iteration_success"].mean()),
                     "mean_last10_success_fraction": float(runs["final_success_fraction"].mean()),
                     "mean_policy_last10_success_fraction": float(

@@ -176,8 +176,10 @@ class PlannerConfig:
     deploy_trials: int = 10
     # Which weights are deployed: the optimizer's mean after the last iteration, or (evaluating
     # the mean once per iteration, as dmpbbo does) the latest mean whose rollout inserted by
-    # the planner's own observation (``Planner.inserted``); the final mean if none did.
-    deploy_policy: DeployPolicy = "final_mean"
+    # the planner's own observation (``Planner.inserted``); the final mean if none did. With
+    # the latter the final mean is deployed too, on the same sensed holes (phase
+    # ``deploy_final_mean``), so one training run measures both policies.
+    deploy_policy: DeployPolicy = "last_inserted_mean"
     # Stop early when the best J_inn of the last `convergence_window` iterations varies by less
     # than `convergence_tolerance` relative to its mean; 0 runs the whole budget (the paper's
     # bands compare runs over the same iterations).
@@ -381,7 +383,10 @@ class CostBalance:
 ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
     "phase": (
         "",
-        "train (Algorithm 1), mean (the iteration's mean weights, if evaluated) or deploy",
+        (
+            "train (Algorithm 1), mean (the iteration's mean weights, if evaluated), deploy (the "
+            "deployed policy) or deploy_final_mean (the final mean beside last_inserted_mean)"
+        ),
     ),
     "iteration": ("1", "iteration i (1-based); deploy rows: the iterations trained"),
     "rollout": ("1", "rollout index within the iteration (deploy: trial index)"),
@@ -434,6 +439,7 @@ class RunRecord:
     success_iteration: int | None
     deploy_success_rate: float
     deployed_iteration: int | None  # whose evaluated mean was deployed; None: the final mean
+    final_mean_deploy_success_rate: float  # the final mean's, deployed on the same sensed holes
     stop_reason: str
     seeds: dict[str, int]
     cost_divisors: list[float]
@@ -535,6 +541,22 @@ class RunRecorder:
                 self.successes += 1
                 if self.success_iteration is None:
                     self.success_iteration = iteration
+
+    def add_deployment(
+        self,
+        phase: str,
+        iterations_trained: int,
+        trials: list[tuple[NDArray[np.float64], NDArray[np.float64]]],
+        results: list[tuple[Trace, CostTerms | None]],
+        balance: CostBalance,
+    ) -> float:
+        """Rows of deployment rollouts (one per (target, sensed hole) trial) under ``phase``;
+        the fraction that inserted (true |P2 − H| ≤ tolerance)."""
+        first = len(self.rows)
+        for trial, ((target, sensed), (trace, terms)) in enumerate(zip(trials, results)):
+            costs = balance.totals([terms])
+            self.add(phase, iterations_trained, sensed, target, [trace], [terms], costs, 0.0, trial)
+        return float(np.mean([row["success"] for row in self.rows[first:]]))
 
     def report(self, iteration: int, iterations: int, elapsed_s: float) -> IterationReport:
         finite = [c for c in self.best_costs if math.isfinite(c)]
@@ -686,16 +708,30 @@ class Planner:
             if self._converged(recorder.best_costs):
                 stop_reason = f"converged at iteration {iteration}"
                 break
-        if policy is None:
-            policy = optimizer.mean
-        deployment = self.deploy(policy, outer, balance, recorder, iteration, rollouts)
+        trials = self.deployment_trials(outer)
+
+        def deploy(weights: NDArray[np.float64]) -> list[tuple[Trace, CostTerms | None]]:
+            return rollouts.evaluate([(target, weights, sensed) for target, sensed in trials])
+
+        final_mean = optimizer.mean
+        deployed = deploy(final_mean if policy is None else policy)
+        deploy_rate = recorder.add_deployment("deploy", iteration, trials, deployed, balance)
+        final_mean_rate = deploy_rate
+        if evaluate_mean:
+            # The final mean on the same sensed holes: the comparison policy, from the same
+            # training. It is the deployed one when no evaluated mean inserted.
+            final = deployed if policy is None else deploy(final_mean)
+            final_mean_rate = recorder.add_deployment(
+                "deploy_final_mean", iteration, trials, final, balance
+            )
         rollouts, best_paths = recorder.tables()
         return RunRecord(
             rollouts=rollouts,
             best_paths=best_paths,
             success_iteration=recorder.success_iteration,
-            deploy_success_rate=deployment,
+            deploy_success_rate=deploy_rate,
             deployed_iteration=deployed_iteration,
+            final_mean_deploy_success_rate=final_mean_rate,
             stop_reason=stop_reason,
             seeds=self.seeds,
             cost_divisors=balance.divisors.tolist(),
@@ -703,30 +739,12 @@ class Planner:
             rollout_seconds=rollout_seconds,
         )
 
-    def deploy(
-        self,
-        policy: NDArray[np.float64],
-        outer: OuterLevel,
-        balance: CostBalance,
-        recorder: RunRecorder,
-        iterations_trained: int,
-        rollouts: RolloutWorkers,
-    ) -> float:
-        """Run the deployed weights (no exploration; ``deploy_policy``) ``deploy_trials`` times,
-        each against a freshly sensed hole; the fraction that inserts (true |P2 − H| ≤
-        tolerance)."""
+    def deployment_trials(self, outer: OuterLevel) -> list[tuple[NDArray, NDArray]]:
+        """``deploy_trials`` (target, sensed hole) pairs, each hole freshly sensed from the run's
+        deployment stream: one-level aims at it, bilevel where its outer level puts the goal."""
         rng = np.random.default_rng(self.seeds["deployment"])
         sensings = [self.sense_hole(rng) for _ in range(self.config.deploy_trials)]
-        targets = [self.target(outer, sensed) for sensed in sensings]
-        results = rollouts.evaluate([(t, policy, s) for t, s in zip(targets, sensings)])
-        successes = 0
-        for trial, (sensed, target, (trace, terms)) in enumerate(zip(sensings, targets, results)):
-            costs = balance.totals([terms])
-            recorder.add(
-                "deploy", iterations_trained, sensed, target, [trace], [terms], costs, 0.0, trial
-            )
-            successes += recorder.rows[-1]["success"]
-        return successes / self.config.deploy_trials
+        return [(self.target(outer, sensed), sensed) for sensed in sensings]
 
     def _converged(self, best_costs: list[float]) -> bool:
         window = self.config.convergence_window

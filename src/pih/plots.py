@@ -191,10 +191,10 @@ def cost_band_figure(bands: pd.DataFrame, group: str = "method") -> plt.Figure:
 
 def deploy_success_figure(table: pd.DataFrame) -> plt.Figure:
     """Deployment success with its 95 % interval over runs, per method (colour) and per level of
-    every sweep dimension (rows)."""
+    every sweep dimension (rows); hollow beneath it, the final mean's where it was deployed too."""
     groups = list(dict.fromkeys(zip(table["dimension"], table["level"])))
     methods = sorted(table["method"].unique())
-    fig, ax = plt.subplots(figsize=(7, 0.45 * len(groups) * len(methods) + 1.4))
+    fig, ax = plt.subplots(figsize=(7, 0.45 * len(groups) * len(methods) + 2.2))
     colours = plt.get_cmap("tab10")
     y = 0
     ticks, labels = [], []
@@ -205,18 +205,25 @@ def deploy_success_figure(table: pd.DataFrame) -> plt.Figure:
             if row.empty:
                 continue
             row = row.iloc[0]
-            ax.errorbar(
-                row["deploy_success_rate"],
-                y,
-                xerr=[
-                    [row["deploy_success_rate"] - row["deploy_ci_low"]],
-                    [row["deploy_ci_high"] - row["deploy_success_rate"]],
-                ],
-                fmt="o",
-                color=colours(m),
-                capsize=3,
-                label=method if (dimension, level) == groups[0] else None,
-            )
+            first = (dimension, level) == groups[0]
+            for prefix, offset, face in (("", 0.0, colours(m)), ("final_mean_", -0.3, "white")):
+                rate = row.get(f"{prefix}deploy_success_rate", np.nan)
+                if not np.isfinite(rate) or (prefix and row["deploy_success_rate"] == rate):
+                    continue
+                ax.errorbar(
+                    rate,
+                    y + offset,
+                    xerr=[
+                        [rate - row[f"{prefix}deploy_ci_low"]],
+                        [row[f"{prefix}deploy_ci_high"] - rate],
+                    ],
+                    fmt="o",
+                    color=colours(m),
+                    mfc=face,
+                    lw=1.0 if not prefix else 0.6,
+                    capsize=3,
+                    label=(f"{method}, final mean" if prefix else method) if first else None,
+                )
             ticks.append(y)
             name = "all runs" if dimension == "all" else f"{dimension.rsplit('.', 1)[-1]} = {level}"
             labels.append(f"{name} (n = {int(row['runs'])})")
@@ -228,7 +235,12 @@ def deploy_success_figure(table: pd.DataFrame) -> plt.Figure:
         "deployment success rate (fraction of trials that inserted; 95 % interval over runs)"
     )
     ax.grid(alpha=0.3, axis="x")
-    ax.legend(fontsize=8, loc="lower right")
+    ax.legend(
+        fontsize=7,
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.12 - 0.5 / fig.get_figheight()),
+        ncol=2,
+    )
     ax.set_title("Would the learned policy insert if deployed? (beyond the paper)", fontsize=9)
     fig.tight_layout()
     return fig
@@ -286,6 +298,9 @@ def run_figure(
     for ax in (cost_ax, goal_ax, path_ax):
         ax.grid(alpha=0.3)
     outcome = f"deployment {deploy['success'].mean():.0%} of {len(deploy)}" if len(deploy) else ""
+    final_mean = rollouts[rollouts["phase"] == "deploy_final_mean"]
+    if len(final_mean):
+        outcome += f" (the final mean: {final_mean['success'].mean():.0%})"
     fig.suptitle(f"{title}: {outcome}", fontsize=9)
     fig.tight_layout()
     return fig

@@ -97,6 +97,7 @@ def planning_rows(success: pd.DataFrame) -> pd.DataFrame:
             "deployment_success": overall["deploy_success_rate"],
             "ci95_low": overall["deploy_ci_low"],
             "ci95_high": overall["deploy_ci_high"],
+            "final_mean_deployment_success": overall["final_mean_deploy_success_rate"],
             "median_goal_iteration": overall["median_goal_iteration"],
         }
     )

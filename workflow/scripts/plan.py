@@ -22,6 +22,7 @@ with logged(snakemake.log[0]):
         "success_iteration": record.success_iteration,
         "deploy_success_rate": record.deploy_success_rate,
         "deployed_iteration": record.deployed_iteration,
+        "final_mean_deploy_success_rate": record.final_mean_deploy_success_rate,
         "stop_reason": record.stop_reason,
         "cost_divisors": record.cost_divisors,
     }
@@ -52,6 +53,7 @@ with logged(snakemake.log[0]):
         provenance,
     )
     print(
-        f"deployment success {record.deploy_success_rate:.0%}; first successful iteration "
+        f"deployment success {record.deploy_success_rate:.0%} ({planner_config.deploy_policy}; "
+        f"the final mean {record.final_mean_deploy_success_rate:.0%}); first successful iteration "
         f"{record.success_iteration}; {record.stop_reason}; {record.seconds:.1f} s"
     )
