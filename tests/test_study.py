@@ -127,9 +127,10 @@ def test_sweep_points_skip_repeated_one_level_runs_and_reject_bad_sweeps():
 def test_final_success_fraction_uses_the_last_best_rollouts():
     rollouts = pd.DataFrame(
         {
-            "iteration": [1, 1, 2, 2, 3, 3],
-            "is_best": [True, False, False, True, True, False],
-            "success": [True, False, False, False, True, True],
+            "phase": ["train"] * 6 + ["deploy"],
+            "iteration": [1, 1, 2, 2, 3, 3, 3],
+            "is_best": [True, False, False, True, True, False, False],
+            "success": [True, False, False, False, True, True, False],
         }
     )
     assert final_success_fraction(rollouts, last=2) == 0.5

@@ -32,15 +32,14 @@ def wilson_interval(successes: float, trials: int, z: float = 1.96) -> tuple[flo
     return (min(p, max(0.0, centre - half)), max(p, min(1.0, centre + half)))
 
 
-def final_success_fraction(rollouts: pd.DataFrame, last: int = 10) -> float:
-    """Fraction of the last ``last`` training iterations whose best rollout succeeded."""
-    best = rollouts[rollouts["is_best"]].sort_values("iteration")
-    return float(best["success"].tail(last).mean())
-
-
 def best_training_rows(rollouts: pd.DataFrame) -> pd.DataFrame:
     """Each training iteration's lowest-cost rollout, in iteration order."""
     return rollouts[(rollouts["phase"] == "train") & rollouts["is_best"]].sort_values("iteration")
+
+
+def final_success_fraction(rollouts: pd.DataFrame, last: int = 10) -> float:
+    """Fraction of the last ``last`` training iterations whose best rollout succeeded."""
+    return float(best_training_rows(rollouts)["success"].tail(last).mean())
 
 
 REPLICATE_KEYS = ("planner.start_x_m", "planner.seed")
@@ -91,7 +90,7 @@ def run_summary(
         if len(final_mean)
         else math.nan,
         "final_iteration_success": bool(best["success"].iloc[-1]),
-        "final_success_fraction": final_success_fraction(train),
+        "final_success_fraction": final_success_fraction(rollouts),
         "mean_policy_last10_success": float(means["success"].tail(10).mean())
         if len(means)
         else math.nan,

@@ -13,6 +13,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from pih.aggregate import best_training_rows
 from pih.outputs import write_with
 from pih.provenance import canonical_json, stable
 from pih.scene_config import HoleConfig, hole_outline
@@ -252,8 +253,7 @@ def run_figure(
     """One planning run: best J_inn per iteration (and the mean weights' J_inn where evaluated),
     the goal's true distance from the hole, and the best peg-tip paths (darker = later), with the
     deployment outcome in the title."""
-    train = rollouts[rollouts["phase"] == "train"]
-    best = train[train["is_best"]].sort_values("iteration")
+    best = best_training_rows(rollouts)
     deploy = rollouts[rollouts["phase"] == "deploy"]
     fig, (cost_ax, goal_ax, path_ax) = plt.subplots(1, 3, figsize=(14, 4))
     cost_ax.plot(best["iteration"], best["cost"], marker=".", label="best rollout")
