@@ -5,7 +5,7 @@ import pytest
 
 from pih.config import ConfigError, from_mapping, to_mapping
 from pih.frames import offset_along_axis, pose_matrix, pose_vector
-from pih.scene import PegInHoleScene, RobotTrajectory, TrajectoryError
+from pih.scene import PegInHoleScene, RobotTrajectory, TrajectoryError, _Snapshot
 from pih.scene_config import SceneConfig, wall_profile
 
 
@@ -118,6 +118,8 @@ def test_config_round_trip_and_strict_keys():
         ("solver", "time_step_s", 1e-12, r"scene\.solver\.time_step_s.*a step in"),
         ("solver", "retry_time_step_s", 0.003, r"scene\.solver\.retry_time_step_s.*divides"),
         ("solver", "retry_time_step_s", 0.0015, r"scene\.solver\.retry_time_step_s.*divides"),
+        ("solver", "check_interval_s", 0.001, r"scene\.solver\.check_interval_s.*whole number"),
+        ("solver", "check_interval_s", 0.251, r"scene\.solver\.check_interval_s.*whole number"),
         ("hole", "chamfer_width_m", -0.001, r"scene\.hole\.chamfer_width_m.*>= 0"),
         ("material", "friction", "high", r"scene\.material\.friction.*a number"),
         ("solver", "contact_model", "magic", r"scene\.solver\.contact_model.*one of"),
@@ -207,6 +209,88 @@ def test_a_rollout_that_diverges_is_rerun_once_at_the_retry_step():
     assert len(retried) == len(robot.times_s) == (len(reference) + 1) // 2
     assert np.array_equal(retried.time_s, reference.time_s[::2])
     assert np.array_equal(retried.q_peg_bottom, reference.q_peg_bottom[::2])
+
+
+def _fail_once_at(scene: PegInHoleScene, t_s: float, reason: str = "injected") -> None:
+    """Make the interval of ``scene`` that ends at ``t_s`` report a divergence (after running)."""
+    advance = scene._advance
+
+    def failing(t):
+        part, found = advance(t)
+        return part, found or (reason if abs(t - t_s) < 1e-9 else "")
+
+    scene._advance = failing
+
+
+def _fine_scene_calls(scene: PegInHoleScene) -> list[float]:
+    """Build the retry scene now and record the end of every interval it runs."""
+    solver = scene.config.solver
+    scene._fine = PegInHoleScene(
+        scene.config.replace(
+            solver__time_step_s=solver.retry_time_step_s, solver__retry_time_step_s=0.0
+        )
+    )
+    calls: list[float] = []
+    advance = scene._fine._advance
+    scene._fine._advance = lambda t: (calls.append(t), advance(t))[1]
+    return calls
+
+
+def test_only_the_interval_that_diverged_is_rerun_at_the_retry_step():
+    config = SceneConfig()
+    hole = config.hole
+    plain = PegInHoleScene(config)
+    robot = straight_line(
+        robot_for_tip(plain, hole.x_m - 0.03, hole.top_y_m + 0.01),
+        robot_for_tip(plain, hole.x_m - 0.02, hole.top_y_m + 0.01),
+    )
+    reference = plain.rollout(robot)
+    assert reference.ok and reference.time_step_s == 0.002
+    scene = PegInHoleScene(config)
+    fine_intervals = _fine_scene_calls(scene)
+    _fail_once_at(scene, 0.5)
+    trace = scene.rollout(robot)
+    assert trace.ok and trace.time_step_s == 0.001
+    assert fine_intervals == [0.5]
+    assert np.array_equal(trace.time_s, reference.time_s)
+    before = trace.time_s <= 0.25
+    rerun = (trace.time_s > 0.25) & (trace.time_s <= 0.5)
+    # Up to the failed interval's start the rollout is the 2 ms one, sample for sample; the
+    # interval itself and what follows differ from it (1 ms there) by a discretisation error.
+    assert np.array_equal(trace.q_peg_top[before], reference.q_peg_top[before])
+    assert not np.array_equal(trace.q_peg_top[rerun], reference.q_peg_top[rerun])
+    assert np.allclose(trace.q_peg_top[~before], reference.q_peg_top[~before], atol=1e-4)
+    # The 1 ms rerun of that interval alone, from the 2 ms state at 0.25 s: its samples match.
+    fine = scene._fine
+    fine._start(robot, _state_at(plain, robot, 0.25))
+    part, reason = fine._advance(0.5)
+    assert reason == ""
+    assert np.array_equal(trace.q_peg_top[rerun], part.state[1::2, :3])
+
+
+def _state_at(scene: PegInHoleScene, robot: RobotTrajectory, t_s: float):
+    scene._start(robot, _Snapshot.at_rest(robot.poses[0]))
+    scene._advance(t_s)
+    return scene._snapshot()
+
+
+def test_an_interval_that_diverges_again_at_the_retry_step_ends_the_rollout():
+    config = SceneConfig()
+    hole = config.hole
+    scene = PegInHoleScene(config)
+    robot = straight_line(
+        robot_for_tip(scene, hole.x_m - 0.03, hole.top_y_m + 0.01),
+        robot_for_tip(scene, hole.x_m - 0.02, hole.top_y_m + 0.01),
+    )
+    fine_intervals = _fine_scene_calls(scene)
+    _fail_once_at(scene, 0.75, "coarse failure")
+    _fail_once_at(scene._fine, 0.75, "fine failure")
+    trace = scene.rollout(robot)
+    assert trace.status == "diverged" and trace.time_step_s == 0.001
+    assert trace.reason == "at the 1 ms retry: fine failure (at 2 ms: coarse failure)"
+    assert fine_intervals == [0.75]
+    # Nothing after the failed interval was simulated.
+    assert trace.time_s[-1] == pytest.approx(0.75)
 
 
 def test_penetration_depth_of_peg_corners(scene):

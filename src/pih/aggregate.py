@@ -157,7 +157,7 @@ SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
     "diverged_rollout_fraction": ("1", "mean fraction of diverged training rollouts"),
     "retried_rollout_fraction": (
         "1",
-        "mean fraction of training rollouts rerun at solver.retry_time_step_s after diverging",
+        "mean fraction of training rollouts with an interval rerun at solver.retry_time_step_s",
     ),
     "deploy_diverged_fraction": (
         "1",

@@ -412,7 +412,7 @@ ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
     "is_best": ("1", "lowest cost of its training iteration"),
     "status": ("", "ok or diverged"),
     "reason": ("", "why the rollout diverged"),
-    "time_step_s": ("s", "simulator step the rollout ran at (solver.retry_time_step_s if rerun)"),
+    "time_step_s": ("s", "finest step used (solver.retry_time_step_s if an interval was rerun)"),
     "sigma": ("1", "optimizer exploration scale σ_W when sampled (0 for deploy)"),
 }
 PATH_COLUMNS: dict[str, tuple[str, str]] = {

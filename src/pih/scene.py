@@ -167,6 +167,7 @@ class PegInHoleScene:
         self.config = config or SceneConfig()
         self.config.validate()
         self._fine: PegInHoleScene | None = None  # the retry step's scene (see _retry)
+        self._last_sample_time_s = -math.inf  # samples up to here are already taken (_advance)
         self._build()
         profile = self._wall_profile = wall_profile(self.config.hole)
         edges = np.roll(profile, -1, axis=0) - profile
@@ -369,49 +370,124 @@ class PegInHoleScene:
     # -- simulation ----------------------------------------------------------------------------
     def rollout(self, robot: RobotTrajectory) -> Trace:
         """Simulate the peg pulled by the robot trajectory q_R(t) (eq. 1); never raises on
-        simulation failure: the trace then ends early with status ``diverged`` and a reason."""
+        simulation failure: the trace then ends early with status ``diverged`` and a reason.
+
+        The rollout runs in check intervals (``solver.check_interval_s``). An interval that
+        diverges is run once more at ``solver.retry_time_step_s`` from its start state, on a
+        second diagram built on first use, and the rollout then goes on at the configured step
+        (docs/simulation.md)."""
         if not isinstance(robot, RobotTrajectory):
             raise TrajectoryError(f"rollout() takes a RobotTrajectory, got {type(robot).__name__}")
-        cfg = self.config
+        solver = self.config.solver
+        self._start(robot, _Snapshot.at_rest(robot.poses[0]))
+        parts: list[_Samples] = []
+        reason = ""
+        retried = False
+        t, t_end = 0.0, robot.duration_s
+        while t < t_end and not reason:
+            t_next = min(t + solver.check_interval_s, t_end)
+            before = self._snapshot()
+            part, reason = self._advance(t_next)
+            if reason and solver.retry_time_step_s > 0:
+                retried = True
+                part, reason = self._retry(robot, before, t_next, reason)
+            parts.append(part)
+            t = t_next
+        return self._trace(robot, _Samples.concatenate(parts), reason, retried)
+
+    def _start(self, robot: RobotTrajectory, snapshot: _Snapshot) -> None:
+        """Load the robot trajectory and put the diagram in ``snapshot``'s state, logs empty."""
         self._robot_source.UpdateTrajectory(
             PiecewisePolynomial.FirstOrderHold(robot.times_s, robot.poses.T)
         )
         context = self._context
         context.SetTime(0.0)
         self._diagram.SetDefaultContext(context)
-        # SetDefaultContext keeps the plant's sampled output ports (abstract state): without this
-        # the first logged contact force would be the previous rollout's last one.
-        for index, value in enumerate(self._fresh_sampled_outputs):
-            self._plant_context.get_mutable_abstract_state(index).SetFrom(value)
-        context.SetTime(0.0)
-        self._plant.SetPositions(self._plant_context, self._peg_instance, robot.poses[0])
-        self._plant.SetVelocities(self._plant_context, self._peg_instance, np.zeros(3))
+        self._restore(snapshot)
+        self._last_sample_time_s = -math.inf if snapshot.time_s == 0.0 else snapshot.time_s
         for log in (self._state_log, self._robot_log, self._contact_log):
             log.FindMutableLog(context).Clear()
         self._patch_counts.clear()
         self._simulator.Initialize()
 
-        reason = ""
-        t_end = robot.duration_s
-        t = 0.0
-        while t < t_end and not reason:
-            t = min(t + cfg.solver.check_interval_s, t_end)
-            try:
-                self._simulator.AdvanceTo(t)
-            except RuntimeError as error:
-                reason = f"simulator error at t = {context.get_time():.4f} s: {error}".splitlines()[
-                    0
-                ]
-                break
-            reason = self._check_state(context.get_time())
-        trace = self._trace(robot, "" if reason == "stop" else reason)
-        if trace.ok or cfg.solver.retry_time_step_s == 0:
-            return trace
-        return self._retry(robot, trace.reason)
+    def _snapshot(self) -> _Snapshot:
+        return _Snapshot(
+            time_s=self._context.get_time(),
+            state=self._plant.GetPositionsAndVelocities(self._plant_context).copy(),
+            sampled_outputs=[
+                self._plant_context.get_abstract_state(i).Clone()
+                for i in range(self._plant_context.num_abstract_states())
+            ],
+        )
 
-    def _retry(self, robot: RobotTrajectory, first_reason: str) -> Trace:
-        """The rollout once more at ``solver.retry_time_step_s`` (a second diagram, built on
-        first use), its trace sampled at the configured step."""
+    def _restore(self, snapshot: _Snapshot) -> None:
+        # SetDefaultContext keeps the plant's sampled output ports (abstract state): without
+        # resetting them the first logged contact force would be the previous rollout's last one.
+        outputs = snapshot.sampled_outputs or self._fresh_sampled_outputs
+        for index, value in enumerate(outputs):
+            self._plant_context.get_mutable_abstract_state(index).SetFrom(value)
+        self._context.SetTime(snapshot.time_s)
+        self._plant.SetPositionsAndVelocities(self._plant_context, snapshot.state)
+
+    def _advance(self, t_s: float) -> tuple[_Samples, str]:
+        """Advance to ``t_s``: the new logged samples, cut before the first that diverged, and
+        why it diverged ("" if it did not)."""
+        context = self._context
+        reason = ""
+        try:
+            self._simulator.AdvanceTo(t_s)
+        except RuntimeError as error:
+            reason = f"simulator error at t = {context.get_time():.4f} s: {error}".splitlines()[0]
+        logs = [
+            self._state_log.FindLog(context),
+            self._robot_log.FindLog(context),
+            self._contact_log.FindLog(context),
+        ]
+        times = logs[0].sample_times()
+        new = times > self._last_sample_time_s
+        # Copies: the logs' arrays are views into buffers the next interval overwrites.
+        state, robot_q, generalized = (log.data().T[new].copy() for log in logs)
+        times = times[new].copy()
+        for log in logs:
+            log.Clear()
+        if times.size:
+            self._last_sample_time_s = float(times[-1])
+        part = _Samples(
+            time_s=times,
+            state=state,
+            robot=robot_q[:, :3],
+            generalized=generalized,
+            patches=self._aligned_patch_counts(times),
+            penetration=np.zeros(times.size),
+        )
+        self._patch_counts.clear()
+        return self._check(part, reason)
+
+    def _check(self, part: _Samples, reason: str) -> tuple[_Samples, str]:
+        """Fill in the samples' penetration and cut them before the first that exceeds a
+        divergence limit of ``solver`` (docs/simulation.md)."""
+        q_peg = offset_along_axis(part.state[:, :3], -self.config.peg.length_m / 2)
+        finite = np.all(np.isfinite(part.state), axis=1) & np.all(
+            np.isfinite(part.generalized), axis=1
+        )
+        violations = self._limit_violations(q_peg, part.generalized[:, :2])
+        part.penetration = violations["max_penetration_m"][1]
+        bad = ~finite
+        for exceeded, _ in violations.values():
+            bad = bad | exceeded
+        if not np.any(bad):
+            return part, reason
+        first = int(np.argmax(bad))
+        reason = reason or _divergence_reason(
+            part.time_s[first], finite[first], violations, first, self.config.solver
+        )
+        return part.take(slice(0, first)), reason
+
+    def _retry(
+        self, robot: RobotTrajectory, before: _Snapshot, t_s: float, first_reason: str
+    ) -> tuple[_Samples, str]:
+        """The interval from ``before`` to ``t_s`` once more at ``solver.retry_time_step_s``,
+        sampled at the configured step; on success this diagram continues from its end."""
         solver = self.config.solver
         if self._fine is None:
             self._fine = PegInHoleScene(
@@ -419,34 +495,18 @@ class PegInHoleScene:
                     solver__time_step_s=solver.retry_time_step_s, solver__retry_time_step_s=0.0
                 )
             )
-        fine = self._fine.rollout(robot)
-        every = round(solver.time_step_s / solver.retry_time_step_s)
-        arrays = {
-            f.name: getattr(fine, f.name)[::every]
-            for f in dataclasses.fields(fine)
-            if isinstance(getattr(fine, f.name), np.ndarray)
-        }
+        fine = self._fine
+        fine._start(robot, before)
+        part, fine_reason = fine._advance(t_s)
+        steps = part.time_s / solver.time_step_s
+        part = part.take(np.abs(steps - np.round(steps)) < 1e-6)
+        if not fine_reason:
+            self._restore(fine._snapshot())
+            self._simulator.Initialize()
+            self._last_sample_time_s = fine._last_sample_time_s
+            return part, ""
         retry, step = (f"{1e3 * t:g} ms" for t in (solver.retry_time_step_s, solver.time_step_s))
-        reason = f"at the {retry} retry: {fine.reason} (at {step}: {first_reason})"
-        return Trace(
-            **arrays,
-            status=fine.status,
-            reason=reason if fine.reason else "",
-            time_step_s=solver.retry_time_step_s,
-        )
-
-    def _check_state(self, t: float) -> str:
-        """Stop a running rollout early on the divergence criteria (the full trace is checked
-        again afterwards, sample by sample, to find the first bad step)."""
-        q = self._plant.GetPositions(self._plant_context, self._peg_instance)
-        v = self._plant.GetVelocities(self._plant_context, self._peg_instance)
-        force = self._contact_port.Eval(self._plant_context)
-        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v)) and np.all(np.isfinite(force))):
-            return f"non-finite peg state or force at t = {t:.4f} s"
-        q_peg = offset_along_axis(q, -self.config.peg.length_m / 2)
-        violations = self._limit_violations(q_peg[None], force[None, :2])
-        # The reason is worded from the logged samples in _trace.
-        return "stop" if any(bad[0] for bad, _ in violations.values()) else ""
+        return part, f"at the {retry} retry: {fine_reason} (at {step}: {first_reason})"
 
     def _limit_violations(
         self, q_peg: NDArray[np.float64], contact_xy_n: NDArray[np.float64]
@@ -463,63 +523,43 @@ class PegInHoleScene:
             "max_distance_from_hole_m": (distance > cfg.max_distance_from_hole_m, distance),
         }
 
-    def _trace(self, robot: RobotTrajectory, reason: str) -> Trace:
+    def _trace(
+        self, robot: RobotTrajectory, samples: _Samples, reason: str, retried: bool
+    ) -> Trace:
         cfg = self.config
-        context = self._context
-        # Copies: the logs' arrays are views into buffers the next rollout overwrites.
-        state_log = self._state_log.FindLog(context)
-        times = state_log.sample_times().copy()
-        state = state_log.data().T.copy()
-        robot_q = self._robot_log.FindLog(context).data().T[:, :3].copy()
-        generalized = self._contact_log.FindLog(context).data().T.copy()
-        q_top = state[:, :3]
+        times = samples.time_s
+        q_top = samples.state[:, :3]
         q_peg = offset_along_axis(q_top, -cfg.peg.length_m / 2)
         q_bottom = self.peg_bottom_from_top(q_top)
+        generalized = samples.generalized
         # Generalized contact force of the planar joint = (F_x, F_y, moment about P1); shift the
         # moment to P: M_P = M_P1 + (r_P1 − r_P) × F.
         lever = q_top[:, :2] - q_peg[:, :2]
         moment_p = (
             generalized[:, 2] + lever[:, 0] * generalized[:, 1] - lever[:, 1] * generalized[:, 0]
         )
-        contact = np.column_stack([generalized[:, 0], generalized[:, 1], moment_p])
-        patches = self._aligned_patch_counts(times)
-
-        finite = np.all(np.isfinite(state), axis=1) & np.all(np.isfinite(generalized), axis=1)
-        violations = self._limit_violations(q_peg, contact[:, :2])
-        penetration = violations["max_penetration_m"][1]
-        bad = ~finite
-        for exceeded, _ in violations.values():
-            bad = bad | exceeded
-        n = times.size
-        if np.any(bad):
-            first = int(np.argmax(bad))
-            if not reason:
-                reason = _divergence_reason(
-                    times[first], finite[first], violations, first, cfg.solver
-                )
-            n = first
-        elif (
+        if (
             not reason
             and times.size
             and times[-1] < robot.duration_s - 0.5 * cfg.solver.time_step_s
         ):
             reason = f"simulation stopped at t = {times[-1]:.4f} s before the trajectory ended"
-        cut = slice(0, n)
+        robot_q = samples.robot
         return Trace(
-            time_s=times[cut],
-            q_robot=robot_q[cut],
-            q_peg=q_peg[cut],
-            q_peg_top=q_top[cut],
-            q_peg_bottom=q_bottom[cut],
-            contact_force=contact[cut],
-            contact_patches=patches[cut],
-            spring_force=spring_force(robot_q[cut], q_top[cut], cfg.spring.stiffness),
-            spring_energy_j=spring_energy(robot_q[cut], q_top[cut], cfg.spring.stiffness),
-            insertion_depth_m=self.insertion_depth(q_bottom[cut]),
-            penetration_m=penetration[cut],
+            time_s=times,
+            q_robot=robot_q,
+            q_peg=q_peg,
+            q_peg_top=q_top,
+            q_peg_bottom=q_bottom,
+            contact_force=np.column_stack([generalized[:, 0], generalized[:, 1], moment_p]),
+            contact_patches=samples.patches,
+            spring_force=spring_force(robot_q, q_top, cfg.spring.stiffness),
+            spring_energy_j=spring_energy(robot_q, q_top, cfg.spring.stiffness),
+            insertion_depth_m=self.insertion_depth(q_bottom),
+            penetration_m=samples.penetration,
             status="diverged" if reason else "ok",
             reason=reason,
-            time_step_s=cfg.solver.time_step_s,
+            time_step_s=cfg.solver.retry_time_step_s if retried else cfg.solver.time_step_s,
         )
 
     def _aligned_patch_counts(self, times: NDArray[np.float64]) -> NDArray[np.int64]:
@@ -529,6 +569,45 @@ class PegInHoleScene:
         when, count = np.array(self._patch_counts).T
         index = np.clip(np.searchsorted(when, times - 1e-9), 0, when.size - 1)
         return count[index].astype(np.int64)
+
+
+@dataclass(frozen=True)
+class _Snapshot:
+    """The diagram's state at one time: the plant's [q_P1, v] and its sampled outputs (none: a
+    fresh rollout's)."""
+
+    time_s: float
+    state: NDArray[np.float64]
+    sampled_outputs: list = dataclasses.field(default_factory=list)
+
+    @staticmethod
+    def at_rest(q_p1: NDArray[np.float64]) -> _Snapshot:
+        return _Snapshot(0.0, np.concatenate([q_p1, np.zeros(3)]))
+
+
+@dataclass
+class _Samples:
+    """Logged samples of a stretch of a rollout: times (n,), the plant's state [q_P1, v] (n, 6),
+    robot pose (n, 3), generalized contact force at P1 (n, 3), patch counts and penetration (n,)."""
+
+    time_s: NDArray[np.float64]
+    state: NDArray[np.float64]
+    robot: NDArray[np.float64]
+    generalized: NDArray[np.float64]
+    patches: NDArray[np.int64]
+    penetration: NDArray[np.float64]
+
+    def take(self, which: slice | NDArray[np.bool_]) -> _Samples:
+        return _Samples(*(getattr(self, f.name)[which] for f in dataclasses.fields(self)))
+
+    @staticmethod
+    def concatenate(parts: list[_Samples]) -> _Samples:
+        return _Samples(
+            *(
+                np.concatenate([getattr(p, f.name) for p in parts])
+                for f in dataclasses.fields(_Samples)
+            )
+        )
 
 
 def _divergence_reason(
