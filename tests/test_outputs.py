@@ -54,7 +54,7 @@ def test_trace_round_trip_with_provenance(tmp_path, trace, scene, capsys):
     stored = read_provenance(path)
     assert stored == json.loads(json.dumps(record))
     assert stored["run_id"] == "unit_test/offset_mm=1.0"
-    assert stored["simulator"]["discrete_contact_approximation"] == "tamsi"
+    assert stored["simulator"]["discrete_contact_approximation"] == "lagged"
     assert stored["packages"]["drake"] == "1.51.1"
     units = read_units(path)
     assert units["contact_fx_n"] == "N" and units["spring_energy_j"] == "J"

@@ -121,12 +121,13 @@ def test_offsets_outside_the_theory_are_rejected():
 
 
 def test_real_insertion_matches_whitney_in_shape():
-    """Regression check on the physics: a fast (10 mm/s) straight-down insertion at 1 mm."""
+    """Regression check on the physics: the default scene, a straight-down insertion at 1 mm
+    offset at the validation's quasi-static 2 mm/s, to 12 mm depth."""
     from pih.scene import PegInHoleScene
     from pih.validation import run_insertion, validation_scene_config
 
     config = ValidationConfig(
-        speed_m_per_s=0.01, robot_depth_m=0.02, hole_depth_m=0.03, final_depth_m=0.012
+        speed_m_per_s=0.002, robot_depth_m=0.02, hole_depth_m=0.03, final_depth_m=0.012
     )
     scene_config = validation_scene_config(SCENE, config)
     trace = run_insertion(PegInHoleScene(scene_config), 0.001, config)
@@ -138,11 +139,12 @@ def test_real_insertion_matches_whitney_in_shape():
     assert one_point["sim_theta_rad"].median() == pytest.approx(0.0142, rel=0.05)
     assert result.metrics["r_f_x"] > 0.9
     # First contact is where Whitney's chamfer starts, to within a few µm (the hydroelastic
-    # "depth delay" is that small at 200 GPa).
+    # "depth delay" is that small at 20 GPa).
     assert abs(result.metrics["alignment_shift_m"]) < 2e-5
-    # The 1 mm fillet rounds the chamfer's lower end: the simulated peak comes < 1 mm early.
+    # The 0.1 mm fillet rounds the chamfer's lower end: the simulated chamfer peak comes early,
+    # by less than 0.2 mm (0.09 mm measured).
     peak = compare(trace, scene_config, 0.001, config, "first_peak").metrics
-    assert 0.0 < peak["alignment_shift_m"] < 0.001
+    assert 0.0 < peak["alignment_shift_m"] < 2e-4
 
 
 def test_forces_orders_of_magnitude_off_the_theory_are_flagged_not_ok():

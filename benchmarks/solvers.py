@@ -1,0 +1,134 @@
+"""Benchmark: scene settings (solver, modulus, margin, fillet, step) on the planner's rollouts.
+
+Records the robot trajectories of short planning runs on the default scene (bilevel with our
+outer rule, so later iterations reach the hole: the trajectories cover free flight, landing on
+the top surface and the chamfer, and pressing into the hole), then replays every trajectory
+under each scene variant in one process and prints, per variant: ms per rollout, the fraction
+with an interval rerun at the retry step, the fraction that still diverged (and why), and how
+the outcome compares with the default scene's: the median distance between the two P2 at the end and how many
+rollouts end on the other side of the insertion test (|P2 − H| ≤ 1 mm).
+
+    python benchmarks/solvers.py [--iterations 10] [--start-x-m -0.031 -0.037] [--seed 4 1]
+                                 [--variants default similar_20gpa ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections import Counter
+
+import numpy as np
+
+from pih.planner import OuterConfig, Planner, PlannerConfig, replace
+from pih.scene import PegInHoleScene, RobotTrajectory, Trace
+from pih.scene_config import SceneConfig
+
+# Each variant: SceneConfig.replace arguments on top of the default scene.
+SUPPORTED_20GPA = {
+    "material__hydroelastic_modulus_pa": 2.0e10,
+    "material__margin_m": 0.0,
+}
+VARIANTS: dict[str, dict[str, object]] = {
+    "default": {},
+    "no_retry": {"solver__retry_time_step_s": 0.0},
+    "similar": {"solver__discrete_contact_approximation": "similar"},
+    "similar_20gpa": {"solver__discrete_contact_approximation": "similar", **SUPPORTED_20GPA},
+    "similar_validation_scene": {
+        "solver__discrete_contact_approximation": "similar",
+        "hole__fillet_radius_m": 1.0e-4,
+        **SUPPORTED_20GPA,
+    },
+    "lagged_20gpa": {"solver__discrete_contact_approximation": "lagged", **SUPPORTED_20GPA},
+    "lagged_validation_scene_200gpa": {
+        "solver__discrete_contact_approximation": "lagged",
+        "hole__fillet_radius_m": 1.0e-4,
+        "material__margin_m": 0.0,
+    },
+    "lagged_validation_scene": {
+        "solver__discrete_contact_approximation": "lagged",
+        "hole__fillet_radius_m": 1.0e-4,
+        **SUPPORTED_20GPA,
+    },
+    "sap_20gpa": {"solver__discrete_contact_approximation": "sap", **SUPPORTED_20GPA},
+    "tamsi_20gpa_margin": {"material__hydroelastic_modulus_pa": 2.0e10},
+}
+
+
+def planning_trajectories(
+    iterations: int, starts: list[float], seeds: list[int]
+) -> list[RobotTrajectory]:
+    """Every robot trajectory (training, mean and deployment) of short default planning runs."""
+    captured: list[RobotTrajectory] = []
+    for start_x_m, seed in zip(starts, seeds, strict=True):
+        config = replace(
+            PlannerConfig(),
+            iterations=iterations,
+            method="bilevel",
+            seed=seed,
+            start_x_m=start_x_m,
+            outer=OuterConfig(rule="deepest_explored"),
+        )
+        planner = Planner.from_configs(SceneConfig(), config)
+        rollout = planner.scene.rollout
+
+        def capturing(robot: RobotTrajectory, rollout=rollout) -> Trace:
+            captured.append(robot)
+            return rollout(robot)
+
+        planner.scene.rollout = capturing
+        planner.run()
+    return captured
+
+
+def replay(scene: PegInHoleScene, robots: list[RobotTrajectory]) -> tuple[list[Trace], float]:
+    started = time.perf_counter()
+    traces = [scene.rollout(robot) for robot in robots]
+    return traces, (time.perf_counter() - started) / len(robots)
+
+
+def final_tip(trace: Trace) -> np.ndarray:
+    """P2 (x, y) at the end; NaN if the rollout diverged."""
+    return trace.q_peg_bottom[-1, :2] if trace.ok else np.full(2, np.nan)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--iterations", type=int, default=10)
+    parser.add_argument("--start-x-m", type=float, nargs="+", default=[-0.031, -0.037])
+    parser.add_argument("--seed", type=int, nargs="+", default=[4, 1])
+    parser.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
+    args = parser.parse_args()
+
+    robots = planning_trajectories(args.iterations, args.start_x_m, args.seed)
+    print(f"{len(robots)} planning trajectories ({args.iterations} iterations per run)")
+    tolerance = PlannerConfig().success_tolerance_m
+    reference: np.ndarray | None = None
+    for name in args.variants:
+        config = SceneConfig().replace(solver__log_contact_patches=False, **VARIANTS[name])
+        scene = PegInHoleScene(config)
+        traces, seconds = replay(scene, robots)
+        tips = np.array([final_tip(t) for t in traces])
+        if reference is None:
+            reference = tips
+        both = np.isfinite(tips[:, 0]) & np.isfinite(reference[:, 0])
+        errors = np.hypot(*(tips - scene.hole_pose[:2]).T)
+        ref_errors = np.hypot(*(reference - scene.hole_pose[:2]).T)
+        rerun = sum(t.time_step_s != config.solver.time_step_s for t in traces)
+        diverged = [t.reason.split(" at t")[0][:60] for t in traces if not t.ok]
+        flipped = int(np.sum((errors[both] <= tolerance) != (ref_errors[both] <= tolerance)))
+        moved = np.hypot(*(tips[both] - reference[both]).T)
+        print(
+            f"{name}: {1000 * seconds:.0f} ms per rollout; rerun {rerun}/{len(traces)}; "
+            f"diverged {len(diverged)}/{len(traces)} {dict(Counter(diverged).most_common(3))}; "
+            f"inserted {int(np.sum(errors <= tolerance))}; vs {args.variants[0]}: median |ΔP2| "
+            f"{1000 * np.median(moved):.3f} mm (90th percentile {1000 * np.percentile(moved, 90):.2f}), "
+            f"{flipped} of {int(both.sum())} on the other side of the 1 mm test",
+            flush=True,
+        )
+
+
+if __name__ == "__main__":
+    main()
