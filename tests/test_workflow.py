@@ -207,7 +207,9 @@ def test_smoke_study_outputs_carry_provenance(smoke_run):
     assert record["seeds"]["planner.seed"] == record["sweep_point"]["planner.seed"]
     assert {"noise", "exploration", "deployment"} <= set(record["seeds"])
     assert record["seed_key"] and "planner.method" not in record["seed_key"]
-    assert record["simulator"]["discrete_contact_approximation"] == "tamsi"
+    # The planner's provenance records the scene it ran on: the smoke config's.
+    solver = SMOKE["scene"]["solver"]["discrete_contact_approximation"]
+    assert record["simulator"]["discrete_contact_approximation"] == solver == "lagged"
     table = pd.read_parquet(results / "validation" / "comparison.parquet")
     assert set(table["contact_model"]) == {"hydroelastic", "point"}
     for figure in (
