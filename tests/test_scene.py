@@ -211,6 +211,19 @@ def test_a_rollout_that_diverges_is_rerun_once_at_the_retry_step():
     assert np.array_equal(retried.q_peg_bottom, reference.q_peg_bottom[::2])
 
 
+def test_a_trajectory_ending_between_float_grid_points_runs_to_its_end(scene):
+    # linspace's 3.3 lies just below 1650 × 2 ms in floating point, where Drake's last step is
+    # due: the rollout must still take that step and log its sample.
+    hole = scene.config.hole
+    start = robot_for_tip(scene, hole.x_m - 0.03, hole.top_y_m + 0.01)
+    times = np.linspace(0.0, 3.3, 1651)
+    assert times[-1] < 1650 * 0.002
+    robot = RobotTrajectory(times, np.tile(start, (times.size, 1)))
+    trace = scene.rollout(robot)
+    assert trace.ok, trace.reason
+    assert len(trace) == 1651 and trace.time_s[-1] == pytest.approx(3.3)
+
+
 def _fail_once_at(scene: PegInHoleScene, t_s: float, reason: str = "injected") -> None:
     """Make the interval of ``scene`` that ends at ``t_s`` report a divergence (after running)."""
     advance = scene._advance

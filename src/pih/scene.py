@@ -385,7 +385,10 @@ class PegInHoleScene:
         retried = False
         t, t_end = 0.0, robot.duration_s
         while t < t_end and not reason:
-            t_next = min(t + solver.check_interval_s, t_end)
+            t_next = t + solver.check_interval_s
+            # The last interval runs a nanosecond past the end, so a step due at the end time
+            # (k·h in floating point, which may lie just above a given t_end) is still taken.
+            t_next = t_next if t_next < t_end else t_end + 1e-9
             before = self._snapshot()
             part, reason = self._advance(t_next)
             if reason and solver.retry_time_step_s > 0:
