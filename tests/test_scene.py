@@ -287,6 +287,23 @@ def _state_at(scene: PegInHoleScene, robot: RobotTrajectory, t_s: float):
     return scene._snapshot()
 
 
+def test_the_interval_retry_runs_with_point_contact():
+    # Point-contact results name the scene's geometry: nothing of them may cross to the retry
+    # scene (it raised "GeometryId ... not known to this plant" once).
+    config = SceneConfig().replace(solver__contact_model="point")
+    hole = config.hole
+    scene = PegInHoleScene(config)
+    robot = straight_line(
+        robot_for_tip(scene, hole.x_m - 0.001, hole.top_y_m + 0.001),
+        robot_for_tip(scene, hole.x_m - 0.001, hole.y_m + 0.003),
+    )
+    _fail_once_at(scene, 1.5)
+    trace = scene.rollout(robot)
+    assert trace.ok and trace.time_step_s == 0.001, trace.reason
+    # The rerun interval starts in contact.
+    assert np.any(trace.contact_force[np.isclose(trace.time_s, 1.25), :2] != 0.0)
+
+
 def test_an_interval_that_diverges_again_at_the_retry_step_ends_the_rollout():
     config = SceneConfig()
     hole = config.hole

@@ -417,17 +417,14 @@ class PegInHoleScene:
         return _Snapshot(
             time_s=self._context.get_time(),
             state=self._plant.GetPositionsAndVelocities(self._plant_context).copy(),
-            sampled_outputs=[
-                self._plant_context.get_abstract_state(i).Clone()
-                for i in range(self._plant_context.num_abstract_states())
-            ],
         )
 
     def _restore(self, snapshot: _Snapshot) -> None:
         # SetDefaultContext keeps the plant's sampled output ports (abstract state): without
         # resetting them the first logged contact force would be the previous rollout's last one.
-        outputs = snapshot.sampled_outputs or self._fresh_sampled_outputs
-        for index, value in enumerate(outputs):
+        # They are never copied from the other scene (their contact results name that scene's
+        # geometry); the sample they feed at the snapshot's time is the other scene's anyway.
+        for index, value in enumerate(self._fresh_sampled_outputs):
             self._plant_context.get_mutable_abstract_state(index).SetFrom(value)
         self._context.SetTime(snapshot.time_s)
         self._plant.SetPositionsAndVelocities(self._plant_context, snapshot.state)
@@ -576,12 +573,10 @@ class PegInHoleScene:
 
 @dataclass(frozen=True)
 class _Snapshot:
-    """The diagram's state at one time: the plant's [q_P1, v] and its sampled outputs (none: a
-    fresh rollout's)."""
+    """The diagram's state at one time: the plant's [q_P1, v]."""
 
     time_s: float
     state: NDArray[np.float64]
-    sampled_outputs: list = dataclasses.field(default_factory=list)
 
     @staticmethod
     def at_rest(q_p1: NDArray[np.float64]) -> _Snapshot:
