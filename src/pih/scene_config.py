@@ -134,7 +134,7 @@ class MaterialConfig:
     # Paper Table 4 (steel on steel).
     friction: float = PAPER.friction
     # Hydroelastic margin. Not in the paper. It acts like a thinner clearance (16.5 µm per side):
-    # with 5 µm (which TAMSI needed) the validation's r(F_x) falls to 0.07 and planning rollouts
+    # with 5 µm (which TAMSI needed) the validation's r(F_x) falls to 0.01 and planning rollouts
     # insert half as often; `lagged` needs none (docs/simulation.md, docs/validation.md).
     margin_m: float = 0.0
     # Point-contact model only (the "beyond the paper" comparison): contact stiffness.
