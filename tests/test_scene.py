@@ -237,26 +237,26 @@ def _fail_once_at(scene: PegInHoleScene, t_s: float, reason: str = "injected") -
 
 def _fine_scene_calls(scene: PegInHoleScene) -> list[float]:
     """Build the retry scene now and record the end of every interval it runs."""
-    solver = scene.config.solver
-    scene._fine = PegInHoleScene(
-        scene.config.replace(
-            solver__time_step_s=solver.retry_time_step_s, solver__retry_time_step_s=0.0
-        )
-    )
+    fine = scene._retry_scene()
     calls: list[float] = []
-    advance = scene._fine._advance
-    scene._fine._advance = lambda t: (calls.append(t), advance(t))[1]
+    advance = fine._advance
+    fine._advance = lambda t: (calls.append(t), advance(t))[1]
     return calls
+
+
+def _sideways_above_the_hole(scene: PegInHoleScene) -> RobotTrajectory:
+    """A free-flight robot path: 10 mm across, the tip 10 mm above the hole's top surface."""
+    hole = scene.config.hole
+    return straight_line(
+        robot_for_tip(scene, hole.x_m - 0.03, hole.top_y_m + 0.01),
+        robot_for_tip(scene, hole.x_m - 0.02, hole.top_y_m + 0.01),
+    )
 
 
 def test_only_the_interval_that_diverged_is_rerun_at_the_retry_step():
     config = SceneConfig()
-    hole = config.hole
     plain = PegInHoleScene(config)
-    robot = straight_line(
-        robot_for_tip(plain, hole.x_m - 0.03, hole.top_y_m + 0.01),
-        robot_for_tip(plain, hole.x_m - 0.02, hole.top_y_m + 0.01),
-    )
+    robot = _sideways_above_the_hole(plain)
     reference = plain.rollout(robot)
     assert reference.ok and reference.time_step_s == 0.002
     scene = PegInHoleScene(config)
@@ -274,7 +274,7 @@ def test_only_the_interval_that_diverged_is_rerun_at_the_retry_step():
     assert not np.array_equal(trace.q_peg_top[rerun], reference.q_peg_top[rerun])
     assert np.allclose(trace.q_peg_top[~before], reference.q_peg_top[~before], atol=1e-4)
     # The 1 ms rerun of that interval alone, from the 2 ms state at 0.25 s: its samples match.
-    fine = scene._fine
+    fine = scene._retry_scene()
     fine._start(robot, _state_at(plain, robot, 0.25))
     part, reason = fine._advance(0.5)
     assert reason == ""
@@ -305,16 +305,11 @@ def test_the_interval_retry_runs_with_point_contact():
 
 
 def test_an_interval_that_diverges_again_at_the_retry_step_ends_the_rollout():
-    config = SceneConfig()
-    hole = config.hole
-    scene = PegInHoleScene(config)
-    robot = straight_line(
-        robot_for_tip(scene, hole.x_m - 0.03, hole.top_y_m + 0.01),
-        robot_for_tip(scene, hole.x_m - 0.02, hole.top_y_m + 0.01),
-    )
+    scene = PegInHoleScene(SceneConfig())
+    robot = _sideways_above_the_hole(scene)
     fine_intervals = _fine_scene_calls(scene)
     _fail_once_at(scene, 0.75, "coarse failure")
-    _fail_once_at(scene._fine, 0.75, "fine failure")
+    _fail_once_at(scene._retry_scene(), 0.75, "fine failure")
     trace = scene.rollout(robot)
     assert trace.status == "diverged" and trace.time_step_s == 0.001
     assert trace.reason == "at the 1 ms retry: fine failure (at 2 ms: coarse failure)"

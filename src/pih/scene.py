@@ -489,13 +489,7 @@ class PegInHoleScene:
         """The interval from ``before`` to ``t_s`` once more at ``solver.retry_time_step_s``,
         sampled at the configured step; on success this diagram continues from its end."""
         solver = self.config.solver
-        if self._fine is None:
-            self._fine = PegInHoleScene(
-                self.config.replace(
-                    solver__time_step_s=solver.retry_time_step_s, solver__retry_time_step_s=0.0
-                )
-            )
-        fine = self._fine
+        fine = self._retry_scene()
         fine._start(robot, before)
         part, fine_reason = fine._advance(t_s)
         steps = part.time_s / solver.time_step_s
@@ -507,6 +501,17 @@ class PegInHoleScene:
             return part, ""
         retry, step = (f"{1e3 * t:g} ms" for t in (solver.retry_time_step_s, solver.time_step_s))
         return part, f"at the {retry} retry: {fine_reason} (at {step}: {first_reason})"
+
+    def _retry_scene(self) -> PegInHoleScene:
+        """The diagram at ``solver.retry_time_step_s`` (with no retry of its own), built once."""
+        if self._fine is None:
+            solver = self.config.solver
+            self._fine = PegInHoleScene(
+                self.config.replace(
+                    solver__time_step_s=solver.retry_time_step_s, solver__retry_time_step_s=0.0
+                )
+            )
+        return self._fine
 
     def _limit_violations(
         self, q_peg: NDArray[np.float64], contact_xy_n: NDArray[np.float64]
