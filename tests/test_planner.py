@@ -23,6 +23,7 @@ from pih.planner import (
     hole_distance,
     inner_cost,
     outer_goal,
+    recorded_rollout,
     replace,
     run_seeds,
 )
@@ -175,6 +176,8 @@ def test_first_iteration_goal_is_the_sensed_hole_for_both_methods(tiny_runs):
         (lambda c: c["sensing"].update(redraw="never"), r"planner\.sensing\.redraw"),
         (lambda c: c.update(deploy_trials=0), r"planner\.deploy_trials"),
         (lambda c: c.update(deploy_policy="best_sample"), r"planner\.deploy_policy"),
+        (lambda c: c.update(deploy_start_std_m=-0.001), r"planner\.deploy_start_std_m"),
+        (lambda c: c.update(deploy_start_std_m=0.002), r"planner\.deploy_start_std_m.*above"),
         (lambda c: c.update(start_height_m=0.5), r"planner\.start_height_m"),
         (
             lambda c: c["costs"].update(balance="first_iteration_median", spring_energy=0.0),
@@ -246,6 +249,7 @@ def test_seeds_differ_between_sweep_points_and_are_shared_by_the_methods():
             "planner.seed": 0,
             "planner.method": "bilevel",
             "planner.deploy_policy": "last_inserted_mean",
+            "planner.deploy_start_std_m": 0.001,
         }
     )
     assert start_a == one_level == other_rule == other_policy != start_b
@@ -315,6 +319,40 @@ def test_last_inserted_mean_deploys_the_latest_mean_that_inserted(
     expected = reference[reference["phase"] == "deploy"].drop(columns="phase")
     pd.testing.assert_frame_equal(final.reset_index(drop=True), expected.reset_index(drop=True))
     assert record.final_mean_deploy_success_rate == tiny_runs[0].deploy_success_rate
+
+
+def test_deployment_start_offsets_leave_training_and_sensings_alone(tiny_runs):
+    reference = tiny_runs[0].rollouts
+    config = short_config(
+        iterations=2, population_size=3, deploy_policy="final_mean", deploy_start_std_m=0.001
+    )
+    planner = Planner.from_configs(SceneConfig(), config)
+    rows = planner.run().rollouts
+    train = rows[rows["phase"] == "train"].reset_index(drop=True)
+    pd.testing.assert_frame_equal(train, reference[reference["phase"] == "train"])
+    deploy, before = rows[rows["phase"] == "deploy"], reference[reference["phase"] == "deploy"]
+    assert np.array_equal(deploy["sensed_hole_x_m"], before["sensed_hole_x_m"])
+    assert (before[["start_x_m", "start_y_m"]] == planner.start_bottom[:2]).all(axis=None)
+    offsets = deploy[["start_x_m", "start_y_m"]].to_numpy() - planner.start_bottom[:2]
+    assert len(np.unique(offsets)) == offsets.size  # every trial its own start
+    assert 0.0002 < offsets.std() < 0.003
+    assert (deploy["start_theta_rad"] == planner.start_bottom[2]).all()
+    assert not np.array_equal(deploy["final_bottom_x_m"], before["final_bottom_x_m"])
+
+
+def test_a_recorded_rollout_replays_exactly(tiny_runs):
+    rows = tiny_runs[0].rollouts
+    config = short_config(iterations=2, population_size=3, deploy_policy="final_mean")
+    planner = Planner.from_configs(SceneConfig(), config)
+    for _, row in rows[rows["phase"].isin(["train", "deploy"])].iloc[[1, -1]].iterrows():
+        start, target, weights, sensed = recorded_rollout(row)
+        assert weights.shape == (3 * config.dmp.n_basis,)
+        trace, terms = planner.evaluate(planner.dmp(start, target), weights, sensed)
+        assert np.array_equal(
+            trace.q_peg_bottom[-1],
+            row[["final_bottom_x_m", "final_bottom_y_m", "final_bottom_theta_rad"]].to_numpy(float),
+        )
+        assert terms.regularization == row["cost_regularization"]
 
 
 def test_inserted_is_judged_by_the_sensed_depth_only():

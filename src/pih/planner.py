@@ -180,6 +180,12 @@ class PlannerConfig:
     # the latter the final mean is deployed too, on the same sensed holes (phase
     # ``deploy_final_mean``), so one training run measures both policies.
     deploy_policy: DeployPolicy = "last_inserted_mean"
+    # Each deployment trial starts the peg tip this far off the training start, x and y each
+    # N(0, σ²) from the deployment stream (0: every trial starts where training did). Without
+    # it a bilevel policy whose goal does not depend on the sensed hole deploys the same
+    # rollout every trial; with it, the trials ask whether the policy tolerates a start the
+    # robot reaches only to within σ. Not in the paper.
+    deploy_start_std_m: float = 0.0
     # Stop early when the best J_inn of the last `convergence_window` iterations varies by less
     # than `convergence_tolerance` relative to its mean; 0 runs the whole budget (the paper's
     # bands compare runs over the same iterations).
@@ -207,6 +213,14 @@ class PlannerConfig:
         require(self.seed >= 0, prefix + "seed", "an integer >= 0", self.seed)
         require(
             self.deploy_trials >= 1, prefix + "deploy_trials", "an integer >= 1", self.deploy_trials
+        )
+        require(
+            math.isfinite(self.deploy_start_std_m)
+            and 0 <= self.deploy_start_std_m <= self.start_height_m / 4,
+            prefix + "deploy_start_std_m",
+            f"a std >= 0 m and <= start_height_m / 4 ({self.start_height_m / 4:g} m), so that "
+            "deployment starts stay above the hole's top surface",
+            self.deploy_start_std_m,
         )
         require(
             self.deploy_policy in DEPLOY_POLICIES,
@@ -397,6 +411,9 @@ ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
     "sensed_hole_x_m": ("m", "sensed hole x̃_H (eq. 16b)"),
     "sensed_hole_y_m": ("m", "sensed hole y (exact)"),
     "sensed_hole_theta_rad": ("rad", "sensed hole θ (exact)"),
+    "start_x_m": ("m", "peg tip P2 at the start (deploy: offset by deploy_start_std_m), x"),
+    "start_y_m": ("m", "P2 at the start, y"),
+    "start_theta_rad": ("rad", "P2 at the start, θ"),
     "target_x_m": ("m", "P2 pose the DMP aims at (sensed hole, or the outer level's), x"),
     "target_y_m": ("m", "P2 target, y"),
     "target_theta_rad": ("rad", "P2 target, θ"),
@@ -404,6 +421,13 @@ ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
     "goal_x_m": ("m", "DMP goal q_R(T) (the P1 pose of the target), x"),
     "goal_y_m": ("m", "DMP goal q_R(T), y"),
     "goal_theta_rad": ("rad", "DMP goal q_R(T), θ"),
+    "weights": (
+        "1",
+        (
+            "DMP weights W of the rollout (3 × n_basis: x, y, θ; fractions of each DoF's "
+            "amplitude, pih.dmp): with start, target and the scene config it replays exactly"
+        ),
+    ),
     "final_bottom_x_m": ("m", "peg tip P2 at the end, x"),
     "final_bottom_y_m": ("m", "peg tip P2 at the end, y"),
     "final_bottom_theta_rad": ("rad", "peg tip P2 at the end, θ"),
@@ -492,19 +516,16 @@ class RunRecorder:
         self,
         phase: str,
         iteration: int,
-        sensed: NDArray[np.float64],
-        target: NDArray[np.float64],
+        batch: list[Rollout],
         traces: list[Trace],
         terms: list[CostTerms | None],
         costs: NDArray[np.float64],
         sigma: float,
-        first_rollout: int = 0,
     ) -> None:
-        """Rows of one iteration's rollouts (or of deployment trials from ``first_rollout``)."""
-        target_error = float(np.hypot(*(target[:2] - self.hole_xy)))
-        goal = self.scene.peg_top_from_bottom(target)
+        """Rows of one iteration's rollouts, or of deployment trials (one rollout each)."""
         first = len(self.rows)
-        for r, (trace, term, cost) in enumerate(zip(traces, terms, costs), first_rollout):
+        for r, (rollout, trace, term, cost) in enumerate(zip(batch, traces, terms, costs)):
+            start, target, weights, sensed = rollout
             final = trace.q_peg_bottom[-1] if len(trace) else np.full(3, np.nan)
             error = float(np.hypot(*(final[:2] - self.hole_xy)))
             self.rows.append(
@@ -518,9 +539,11 @@ class RunRecorder:
                         for name, value in zip(COST_TERMS, term.values if term else [np.nan] * 3)
                     },
                     **_pose_columns("sensed_hole", sensed),
+                    **_pose_columns("start", start),
                     **_pose_columns("target", target),
-                    "target_hole_error_m": target_error,
-                    **_pose_columns("goal", goal),
+                    "target_hole_error_m": float(np.hypot(*(target[:2] - self.hole_xy))),
+                    **_pose_columns("goal", self.scene.peg_top_from_bottom(target)),
+                    "weights": np.asarray(weights, dtype=float).copy(),
                     **_pose_columns("final_bottom", final),
                     "final_hole_error_m": error,
                     "success": bool(trace.ok and error <= self.tolerance_m),
@@ -546,16 +569,15 @@ class RunRecorder:
         self,
         phase: str,
         iterations_trained: int,
-        trials: list[tuple[NDArray[np.float64], NDArray[np.float64]]],
+        trials: list[Rollout],
         results: list[tuple[Trace, CostTerms | None]],
         balance: CostBalance,
     ) -> float:
-        """Rows of deployment rollouts (one per (target, sensed hole) trial) under ``phase``;
-        the fraction that inserted (true |P2 − H| ≤ tolerance)."""
+        """Rows of deployment rollouts (one per trial) under ``phase``; the fraction that
+        inserted (true |P2 − H| ≤ tolerance)."""
         first = len(self.rows)
-        for trial, ((target, sensed), (trace, terms)) in enumerate(zip(trials, results)):
-            costs = balance.totals([terms])
-            self.add(phase, iterations_trained, sensed, target, [trace], [terms], costs, 0.0, trial)
+        traces, terms = zip(*results)
+        self.add(phase, iterations_trained, trials, traces, terms, balance.totals(terms), 0.0)
         return float(np.mean([row["success"] for row in self.rows[first:]]))
 
     def report(self, iteration: int, iterations: int, elapsed_s: float) -> IterationReport:
@@ -590,7 +612,6 @@ class Planner:
         self.seeds = run_seeds(config, seed_key)
         hole = scene.config.hole
         self.start_bottom = np.array([config.start_x_m, hole.top_y_m + config.start_height_m, 0.0])
-        self.start_robot = scene.peg_top_from_bottom(self.start_bottom)
         settle = config.settle_s
         step = scene.config.solver.time_step_s
         self.times_s = np.arange(0.0, config.dmp.duration_s + settle + 0.5 * step, step)
@@ -613,9 +634,11 @@ class Planner:
         sensing = self.config.sensing
         return np.array([rng.normal(truth[0] + sensing.bias_m, sensing.std_m), truth[1], truth[2]])
 
-    def dmp(self, target: NDArray[np.float64]) -> Dmp:
-        """The DMP from the start to q_R(T) = the P1 pose of the peg whose tip is at ``target``."""
-        return Dmp(self.config.dmp, self.start_robot, self.scene.peg_top_from_bottom(target))
+    def dmp(self, start: NDArray[np.float64], target: NDArray[np.float64]) -> Dmp:
+        """The DMP from the P1 pose of the peg whose tip P2 is at ``start`` to q_R(T), the P1 pose
+        of the peg whose tip is at ``target``."""
+        top = self.scene.peg_top_from_bottom
+        return Dmp(self.config.dmp, top(start), top(target))
 
     def evaluate(
         self, dmp: Dmp, weights: NDArray[np.float64], sensed_hole: NDArray[np.float64]
@@ -685,9 +708,9 @@ class Planner:
             sigma = optimizer.sigma
             mean = optimizer.mean
             samples = optimizer.ask()
-            batch = [(target, w, sensed) for w in samples]
+            batch = [(self.start_bottom, target, w, sensed) for w in samples]
             if evaluate_mean:
-                batch.append((target, mean, sensed))
+                batch.append((self.start_bottom, target, mean, sensed))
             t0 = time.perf_counter()
             results = rollouts.evaluate(batch)
             rollout_seconds += time.perf_counter() - t0
@@ -695,11 +718,11 @@ class Planner:
             costs = balance.totals(list(terms))
             optimizer.tell(samples, costs)
             outer.observe(list(traces), self.cost_samples)
-            recorder.add("train", iteration, sensed, target, traces, terms, costs, sigma)
+            recorder.add("train", iteration, batch, traces, terms, costs, sigma)
             if evaluate_mean:
                 trace, term = results[-1]
                 recorder.add(
-                    "mean", iteration, sensed, target, [trace], [term], balance.totals([term]), 0.0
+                    "mean", iteration, batch[-1:], [trace], [term], balance.totals([term]), 0.0
                 )
                 if self.inserted(trace, sensed):
                     policy, deployed_iteration = mean, iteration
@@ -708,21 +731,28 @@ class Planner:
             if self._converged(recorder.best_costs):
                 stop_reason = f"converged at iteration {iteration}"
                 break
-        trials = self.deployment_trials(outer)
+        situations = self.deployment_trials(outer)
 
-        def deploy(weights: NDArray[np.float64]) -> list[tuple[Trace, CostTerms | None]]:
-            return rollouts.evaluate([(target, weights, sensed) for target, sensed in trials])
+        def trials(weights: NDArray[np.float64]) -> list[Rollout]:
+            return [(start, target, weights, sensed) for start, target, sensed in situations]
 
         final_mean = optimizer.mean
-        deployed = deploy(final_mean if policy is None else policy)
-        deploy_rate = recorder.add_deployment("deploy", iteration, trials, deployed, balance)
+        deployed = trials(final_mean if policy is None else policy)
+        deployed_results = rollouts.evaluate(deployed)
+        deploy_rate = recorder.add_deployment(
+            "deploy", iteration, deployed, deployed_results, balance
+        )
         final_mean_rate = deploy_rate
         if evaluate_mean:
-            # The final mean on the same sensed holes: the comparison policy, from the same
+            # The final mean in the same situations: the comparison policy, from the same
             # training. It is the deployed one when no evaluated mean inserted.
-            final = deployed if policy is None else deploy(final_mean)
+            final = trials(final_mean)
             final_mean_rate = recorder.add_deployment(
-                "deploy_final_mean", iteration, trials, final, balance
+                "deploy_final_mean",
+                iteration,
+                final,
+                deployed_results if policy is None else rollouts.evaluate(final),
+                balance,
             )
         rollouts, best_paths = recorder.tables()
         return RunRecord(
@@ -739,12 +769,21 @@ class Planner:
             rollout_seconds=rollout_seconds,
         )
 
-    def deployment_trials(self, outer: OuterLevel) -> list[tuple[NDArray, NDArray]]:
-        """``deploy_trials`` (target, sensed hole) pairs, each hole freshly sensed from the run's
-        deployment stream: one-level aims at it, bilevel where its outer level puts the goal."""
+    def deployment_trials(self, outer: OuterLevel) -> list[tuple[NDArray, NDArray, NDArray]]:
+        """``deploy_trials`` (start, target, sensed hole) triples from the run's deployment
+        stream: each hole freshly sensed (one-level aims at it, bilevel where its outer level
+        puts the goal), then each start offset in x and y by N(0, deploy_start_std_m²)."""
         rng = np.random.default_rng(self.seeds["deployment"])
-        sensings = [self.sense_hole(rng) for _ in range(self.config.deploy_trials)]
-        return [(self.target(outer, sensed), sensed) for sensed in sensings]
+        n = self.config.deploy_trials
+        sensings = [self.sense_hole(rng) for _ in range(n)]
+        starts = [self.start_bottom.copy() for _ in range(n)]
+        if self.config.deploy_start_std_m > 0:  # drawn after the holes: those stay the same
+            for start, offset in zip(starts, rng.normal(0, self.config.deploy_start_std_m, (n, 2))):
+                start[:2] += offset
+        return [
+            (start, self.target(outer, sensed), sensed)
+            for start, sensed in zip(starts, sensings, strict=True)
+        ]
 
     def _converged(self, best_costs: list[float]) -> bool:
         window = self.config.convergence_window
@@ -758,8 +797,19 @@ class Planner:
         )
 
 
-Rollout = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
-"""One rollout to evaluate: (P2 target of the DMP's goal, weights W, sensed hole q̃_H)."""
+Rollout = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+"""One rollout to evaluate: (P2 pose at the start, P2 target of the DMP's goal, weights W,
+sensed hole q̃_H)."""
+
+
+def recorded_rollout(row: pd.Series) -> Rollout:
+    """The rollout a row of ``rollouts.parquet`` records; ``Planner.evaluate`` on it (with the
+    run's scene and planner config) replays it exactly, e.g. to look at one deployment trial."""
+
+    def pose(prefix: str) -> NDArray[np.float64]:
+        return row[[f"{prefix}_x_m", f"{prefix}_y_m", f"{prefix}_theta_rad"]].to_numpy(float)
+
+    return pose("start"), pose("target"), np.asarray(row["weights"], float), pose("sensed_hole")
 
 
 class RolloutWorkers:
@@ -806,8 +856,8 @@ def _start_worker(scene: SceneConfig, config: PlannerConfig) -> None:
 
 
 def _evaluate(planner: Planner, rollout: Rollout) -> tuple[Trace, CostTerms | None]:
-    target, weights, sensed = rollout
-    return planner.evaluate(planner.dmp(target), weights, sensed)
+    start, target, weights, sensed = rollout
+    return planner.evaluate(planner.dmp(start, target), weights, sensed)
 
 
 def _evaluate_in_worker(rollout: Rollout) -> tuple[Trace, CostTerms | None]:
