@@ -73,3 +73,16 @@ def test_plot_draws_one_planning_run(tmp_path, capsys):
     assert (tmp_path / "run.png").stat().st_size > 10_000
     assert main(["plot", str(tmp_path / "missing")]) == 1
     assert "not a planning run directory" in capsys.readouterr().err
+
+    # Any recorded rollout simulates again to the recorded end, as a Rerun recording.
+    assert main(["replay", str(tmp_path), "phase == 'deploy' and rollout == 0"]) == 0
+    out = capsys.readouterr().out
+    assert "= the record" in out and (tmp_path / "replay_deploy_2_0.rrd").stat().st_size > 1000
+    moved = run.rollouts.assign(final_bottom_x_m=run.rollouts["final_bottom_x_m"] + 1e-9)
+    write_table(moved, tmp_path / "rollouts.parquet", provenance, ROLLOUT_COLUMNS)
+    assert main(["replay", str(tmp_path), "phase == 'deploy'"]) == 1
+    assert "DIFFERS from the record" in capsys.readouterr().out
+    assert main(["replay", str(tmp_path), "phase == 'no_such_phase'"]) == 1
+    assert "no row matches" in capsys.readouterr().err
+    assert main(["replay", str(tmp_path), "phase ==="]) == 1
+    assert "pih replay" in capsys.readouterr().err

@@ -3,6 +3,9 @@
 - ``pih show FILE``: a Parquet output's columns with units, row count and provenance summary;
 - ``pih provenance FILE... [--key K]``: the full provenance record (Parquet or recording);
 - ``pih plot RUN_DIR``: one planning run's cost curve and best paths, as ``RUN_DIR/run.png``;
+- ``pih replay RUN_DIR QUERY``: simulate again the first rollout of the run matching a pandas
+  query (e.g. ``"phase == 'deploy' and rollout == 3"``), check it ends where the record says,
+  and write it as a Rerun recording ``RUN_DIR/replay_<phase>_<iteration>_<rollout>.rrd``;
 - ``pih schema``: the JSON schema of the study's config;
 - ``pih job TARGET [--configfile F ...]``: run the workflow script that makes ``TARGET`` in this
   process, outside Snakemake, for debugging (``python -m pdb -m pih job TARGET``).
@@ -29,6 +32,11 @@ def main(argv: list[str] | None = None) -> int:
     look.add_argument("file", type=Path)
     plot = commands.add_parser("plot", help="cost curve and best paths of one planning run")
     plot.add_argument("run", type=Path, help="a results/planning/<sweep point>/ directory")
+    replay = commands.add_parser("replay", help="simulate one recorded rollout again, to Rerun")
+    replay.add_argument("run", type=Path, help="a results/planning/<sweep point>/ directory")
+    replay.add_argument(
+        "query", help="pandas query on rollouts.parquet, e.g. \"phase == 'deploy'\""
+    )
     job = commands.add_parser("job", help="run the workflow script that makes TARGET, here")
     job.add_argument(
         "target", help="an output path, e.g. results/validation/point/offset_m~0.001.parquet"
@@ -41,6 +49,8 @@ def main(argv: list[str] | None = None) -> int:
         return _show(args.file)
     if args.command == "plot":
         return _plot(args.run)
+    if args.command == "replay":
+        return _replay(args.run, args.query)
     if args.command == "schema":
         from pih.study_config import config_schema
 
@@ -113,6 +123,48 @@ def _plot(run: Path) -> int:
     plots.save(plots.run_figure(rollouts, paths, scene.hole, run.name), target, provenance=record)
     print(target)
     return 0
+
+
+def _replay(run: Path, query: str) -> int:
+    import numpy as np
+    import pandas as pd
+
+    from pih.config import from_mapping
+    from pih.planner import Planner, PlannerConfig, recorded_rollout
+    from pih.provenance import record as provenance_record
+    from pih.recordings import record_insertion
+    from pih.scene_config import SceneConfig
+
+    try:
+        rollouts = pd.read_parquet(run / "rollouts.parquet")
+        config = read_provenance(run / "rollouts.parquet")["config"]
+        rows = rollouts.query(query)
+    except Exception as error:  # noqa: BLE001 - a bad run or query: one clear line
+        first = str(error).splitlines()[0] if str(error) else type(error).__name__
+        print(f"pih replay {run}: {first}", file=sys.stderr)
+        return 1
+    if "weights" not in rollouts or rows.empty:
+        why = "it predates recorded weights" if "weights" not in rollouts else "no row matches"
+        print(f"pih replay {run}: nothing to replay ({why}: {query!r})", file=sys.stderr)
+        return 1
+    row = rows.iloc[0]
+    scene = from_mapping(SceneConfig, config["scene"], "scene")
+    planner = Planner.from_configs(scene, from_mapping(PlannerConfig, config["planner"], "planner"))
+    start, target, weights, sensed = recorded_rollout(row)
+    trace, _ = planner.evaluate(planner.dmp(start, target), weights, sensed)
+    name = f"replay_{row['phase']}_{row['iteration']}_{row['rollout']}"
+    recorded = row[["final_bottom_x_m", "final_bottom_y_m", "final_bottom_theta_rad"]]
+    same = np.array_equal(trace.q_peg_bottom[-1], recorded.to_numpy(float))
+    provenance = provenance_record(
+        "replay", config=config, inputs=[run / "rollouts.parquet"], extra={"query": query}
+    )
+    record_insertion(run / f"{name}.rrd", trace, scene, name, provenance)
+    print(
+        f"{run / name}.rrd: {row['phase']} iteration {row['iteration']} rollout {row['rollout']}, "
+        f"{trace.status}; P2 at the end ({', '.join(f'{v:.6g}' for v in trace.q_peg_bottom[-1])})"
+        f" {'= the record' if same else 'DIFFERS from the record'}"
+    )
+    return 0 if same else 1
 
 
 def _job(target: str, configfiles: list[str] | None) -> int:
