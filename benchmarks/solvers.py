@@ -5,11 +5,16 @@ outer rule, so later iterations reach the hole: the trajectories cover free flig
 the top surface and the chamfer, and pressing into the hole), then replays every trajectory
 under each scene variant in one process and prints, per variant: ms per rollout, the fraction
 with an interval rerun at the retry step, the fraction that still diverged (and why), and how
-the outcome compares with the default scene's: the median distance between the two P2 at the end and how many
-rollouts end on the other side of the insertion test (|P2 − H| ≤ 1 mm).
+the outcome compares with the first variant's: the median distance between the two P2 at the
+end and how many rollouts end on the other side of the insertion test (|P2 − H| ≤ 1 mm).
+
+The variants are the named dotted-path scene settings of ``validation.variants`` in the config
+files (the validation's variants by default; a YAML file of your own adds more), applied to the
+study's planner scene (not the validation's deeper hole).
 
     python benchmarks/solvers.py [--iterations 10] [--start-x-m -0.031 -0.037] [--seed 4 1]
-                                 [--variants default similar_20gpa ...]
+                                 [--configfile config/config.yaml my_variants.yaml]
+                                 [--variants hydroelastic similar tamsi_scene ...]
 """
 
 from __future__ import annotations
@@ -23,40 +28,27 @@ import numpy as np
 from pih.planner import OuterConfig, Planner, PlannerConfig, replace
 from pih.scene import PegInHoleScene, RobotTrajectory, Trace
 from pih.scene_config import SceneConfig
+from pih.study_config import load_yaml_strictly, scene_with
 
-# Each variant: SceneConfig.replace arguments on top of the default scene.
-SUPPORTED_20GPA = {
-    "material__hydroelastic_modulus_pa": 2.0e10,
-    "material__margin_m": 0.0,
-}
-VARIANTS: dict[str, dict[str, object]] = {
-    "default": {},
-    "no_retry": {"solver__retry_time_step_s": 0.0},
-    "similar": {"solver__discrete_contact_approximation": "similar"},
-    "similar_20gpa": {"solver__discrete_contact_approximation": "similar", **SUPPORTED_20GPA},
-    "similar_validation_scene": {
-        "solver__discrete_contact_approximation": "similar",
-        "hole__fillet_radius_m": 1.0e-4,
-        **SUPPORTED_20GPA,
-    },
-    "lagged_20gpa": {"solver__discrete_contact_approximation": "lagged", **SUPPORTED_20GPA},
-    "lagged_validation_scene_200gpa": {
-        "solver__discrete_contact_approximation": "lagged",
-        "hole__fillet_radius_m": 1.0e-4,
-        "material__margin_m": 0.0,
-    },
-    "lagged_validation_scene": {
-        "solver__discrete_contact_approximation": "lagged",
-        "hole__fillet_radius_m": 1.0e-4,
-        **SUPPORTED_20GPA,
-    },
-    "sap_20gpa": {"solver__discrete_contact_approximation": "sap", **SUPPORTED_20GPA},
-    "tamsi_20gpa_margin": {"material__hydroelastic_modulus_pa": 2.0e10},
-}
+
+def scene_variants(configfiles: list[str]) -> tuple[SceneConfig, dict[str, SceneConfig]]:
+    """The study's scene and each named variant's, from the config files (a later file's scene
+    fields and variants override an earlier one's)."""
+    scene: dict = {}
+    variants: dict[str, dict] = {}
+    for path in configfiles:
+        data = load_yaml_strictly(path) or {}
+        for section, fields in (data.get("scene") or {}).items():
+            scene[section] = {**scene.get(section, {}), **fields}
+        variants.update((data.get("validation") or {}).get("variants") or {})
+    return scene_with(scene, {}, "scene"), {
+        name: scene_with(scene, overrides, f"validation.variants.{name}")
+        for name, overrides in variants.items()
+    }
 
 
 def planning_trajectories(
-    iterations: int, starts: list[float], seeds: list[int]
+    scene: SceneConfig, iterations: int, starts: list[float], seeds: list[int]
 ) -> list[RobotTrajectory]:
     """Every robot trajectory (training, mean and deployment) of short default planning runs."""
     captured: list[RobotTrajectory] = []
@@ -69,7 +61,7 @@ def planning_trajectories(
             start_x_m=start_x_m,
             outer=OuterConfig(rule="deepest_explored"),
         )
-        planner = Planner.from_configs(SceneConfig(), config)
+        planner = Planner.from_configs(scene, config)
         rollout = planner.scene.rollout
 
         def capturing(robot: RobotTrajectory, rollout=rollout) -> Trace:
@@ -99,15 +91,23 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=10)
     parser.add_argument("--start-x-m", type=float, nargs="+", default=[-0.031, -0.037])
     parser.add_argument("--seed", type=int, nargs="+", default=[4, 1])
-    parser.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
+    parser.add_argument("--configfile", nargs="+", default=["config/config.yaml"])
+    parser.add_argument("--variants", nargs="+", help="names under validation.variants (all)")
     args = parser.parse_args()
+    study_scene, variants = scene_variants(args.configfile)
+    names = args.variants or list(variants)
+    unknown = [name for name in names if name not in variants]
+    if unknown:
+        parser.error(
+            f"--variants: {unknown} are not under validation.variants ({sorted(variants)})"
+        )
 
-    robots = planning_trajectories(args.iterations, args.start_x_m, args.seed)
+    robots = planning_trajectories(study_scene, args.iterations, args.start_x_m, args.seed)
     print(f"{len(robots)} planning trajectories ({args.iterations} iterations per run)")
     tolerance = PlannerConfig().success_tolerance_m
     reference: np.ndarray | None = None
-    for name in args.variants:
-        config = SceneConfig().replace(solver__log_contact_patches=False, **VARIANTS[name])
+    for name in names:
+        config = variants[name].replace(solver__log_contact_patches=False)
         scene = PegInHoleScene(config)
         traces, seconds = replay(scene, robots)
         tips = np.array([final_tip(t) for t in traces])
@@ -123,7 +123,7 @@ def main() -> None:
         print(
             f"{name}: {1000 * seconds:.0f} ms per rollout; rerun {rerun}/{len(traces)}; "
             f"diverged {len(diverged)}/{len(traces)} {dict(Counter(diverged).most_common(3))}; "
-            f"inserted {int(np.sum(errors <= tolerance))}; vs {args.variants[0]}: median |ΔP2| "
+            f"inserted {int(np.sum(errors <= tolerance))}; vs {names[0]}: median |ΔP2| "
             f"{1000 * np.median(moved):.3f} mm (90th percentile {1000 * np.percentile(moved, 90):.2f}), "
             f"{flipped} of {int(both.sum())} on the other side of the 1 mm test",
             flush=True,

@@ -194,17 +194,21 @@ class ValidationSection:
             raise ConfigError(
                 f"validation.variants: no variant {variant!r} ({sorted(self.variants)})"
             )
-        data = {"scene": scene}
-        for key, overrides in (
-            ("validation.scene_overrides", self.scene_overrides),
-            (f"validation.variants.{variant}", self.variants[variant]),
-        ):
-            try:
-                data = override(data, {f"scene.{path}": v for path, v in overrides.items()})
-                base = from_mapping(SceneConfig, data["scene"], "scene")
-            except ConfigError as error:
-                raise ConfigError(f"{key}: {error}") from None
+        base = scene_with(scene, self.scene_overrides, "validation.scene_overrides")
+        base = scene_with(
+            to_mapping(base), self.variants[variant], f"validation.variants.{variant}"
+        )
         return validation_scene_config(base, self.experiment)
+
+
+def scene_with(scene: Mapping[str, Any], overrides: Mapping[str, Any], key: str) -> SceneConfig:
+    """The scene with dotted-path ``overrides`` (``"solver.time_step_s"``) applied, validated;
+    an error names ``key``, the config entry the overrides came from."""
+    try:
+        data = override({"scene": scene}, {f"scene.{path}": v for path, v in overrides.items()})
+        return from_mapping(SceneConfig, data["scene"], "scene")
+    except ConfigError as error:
+        raise ConfigError(f"{key}: {error}") from None
 
 
 def config_schema() -> dict[str, Any]:
