@@ -15,7 +15,8 @@ Each iteration i:
 4. **Update** W* from the costs (eq. 13, or CMA-ES).
 
 After the last iteration the learned policy W* is **deployed** ``deploy_trials`` times, each
-against a freshly sensed hole, with no exploration noise: the fraction that inserts answers
+against a freshly sensed hole (and, with ``deploy_start_std_m``, from an offset start), with no
+exploration noise: the fraction that inserts answers
 "would this policy insert if deployed?". A rollout *succeeds* when the true (not sensed) distance
 between P2 and the hole frame H at its end is within ``success_tolerance_m``. docs/planner.md
 explains the choices.
