@@ -24,6 +24,7 @@ import time
 from collections import Counter
 
 import numpy as np
+from snakemake.utils import update_config
 
 from pih.planner import OuterConfig, Planner, PlannerConfig, replace
 from pih.scene import PegInHoleScene, RobotTrajectory, Trace
@@ -34,13 +35,11 @@ from pih.study_config import load_yaml_strictly, scene_with
 def scene_variants(configfiles: list[str]) -> tuple[SceneConfig, dict[str, SceneConfig]]:
     """The study's scene and each named variant's, from the config files (a later file's scene
     fields and variants override an earlier one's)."""
-    scene: dict = {}
-    variants: dict[str, dict] = {}
+    config: dict = {}
     for path in configfiles:
-        data = load_yaml_strictly(path) or {}
-        for section, fields in (data.get("scene") or {}).items():
-            scene[section] = {**scene.get(section, {}), **fields}
-        variants.update((data.get("validation") or {}).get("variants") or {})
+        update_config(config, load_yaml_strictly(path) or {})
+    scene = config.get("scene", {})
+    variants = (config.get("validation") or {}).get("variants") or {}
     return scene_with(scene, {}, "scene"), {
         name: scene_with(scene, overrides, f"validation.variants.{name}")
         for name, overrides in variants.items()

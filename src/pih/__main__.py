@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             record = read_output_provenance(path)
         except Exception as error:  # noqa: BLE001 - any unreadable file: say which, go on
-            first = str(error).splitlines()[0] if str(error) else type(error).__name__
+            first = _first_line(error)
             print(f"{path}: not a pih output with provenance ({first})", file=sys.stderr)
             status = 1
             continue
@@ -76,6 +76,10 @@ def main(argv: list[str] | None = None) -> int:
     return status
 
 
+def _first_line(error: Exception) -> str:
+    return str(error).splitlines()[0] if str(error) else type(error).__name__
+
+
 def _show(path: Path) -> int:
     import pyarrow.parquet as pq
 
@@ -84,7 +88,7 @@ def _show(path: Path) -> int:
         schema = pq.read_schema(path)
         record = read_provenance(path)
     except Exception as error:  # noqa: BLE001 - any unreadable file: one clear line
-        first = str(error).splitlines()[0] if str(error) else type(error).__name__
+        first = _first_line(error)
         print(f"{path}: not a pih Parquet output ({first})", file=sys.stderr)
         return 1
     print(f"{path}: {meta.num_rows} rows, {len(schema)} columns")
@@ -115,7 +119,7 @@ def _plot(run: Path) -> int:
         paths = pd.read_parquet(run / "best_paths.parquet")
         record = read_provenance(run / "rollouts.parquet")
     except Exception as error:  # noqa: BLE001 - any unreadable run: one clear line
-        first = str(error).splitlines()[0] if str(error) else type(error).__name__
+        first = _first_line(error)
         print(f"{run}: not a planning run directory ({first})", file=sys.stderr)
         return 1
     scene = from_mapping(SceneConfig, record["config"]["scene"], "scene")
@@ -130,7 +134,7 @@ def _replay(run: Path, query: str) -> int:
     import pandas as pd
 
     from pih.config import from_mapping
-    from pih.planner import Planner, PlannerConfig, recorded_rollout
+    from pih.planner import Planner, PlannerConfig, recorded_pose, recorded_rollout
     from pih.provenance import record as provenance_record
     from pih.recordings import record_insertion
     from pih.scene_config import SceneConfig
@@ -140,7 +144,7 @@ def _replay(run: Path, query: str) -> int:
         config = read_provenance(run / "rollouts.parquet")["config"]
         rows = rollouts.query(query)
     except Exception as error:  # noqa: BLE001 - a bad run or query: one clear line
-        first = str(error).splitlines()[0] if str(error) else type(error).__name__
+        first = _first_line(error)
         print(f"pih replay {run}: {first}", file=sys.stderr)
         return 1
     if "weights" not in rollouts or rows.empty:
@@ -153,8 +157,7 @@ def _replay(run: Path, query: str) -> int:
     start, target, weights, sensed = recorded_rollout(row)
     trace, _ = planner.evaluate(planner.dmp(start, target), weights, sensed)
     name = f"replay_{row['phase']}_{row['iteration']}_{row['rollout']}"
-    recorded = row[["final_bottom_x_m", "final_bottom_y_m", "final_bottom_theta_rad"]]
-    same = np.array_equal(trace.q_peg_bottom[-1], recorded.to_numpy(float))
+    same = np.array_equal(trace.q_peg_bottom[-1], recorded_pose(row, "final_bottom"))
     provenance = provenance_record(
         "replay", config=config, inputs=[run / "rollouts.parquet"], extra={"query": query}
     )

@@ -803,14 +803,17 @@ Rollout = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], N
 sensed hole q̃_H)."""
 
 
+def recorded_pose(row: pd.Series, prefix: str) -> NDArray[np.float64]:
+    """The (x, y, θ) pose a row of ``rollouts.parquet`` records under ``prefix`` (``start``,
+    ``target``, ``final_bottom``, …)."""
+    return row[[f"{prefix}_x_m", f"{prefix}_y_m", f"{prefix}_theta_rad"]].to_numpy(float)
+
+
 def recorded_rollout(row: pd.Series) -> Rollout:
     """The rollout a row of ``rollouts.parquet`` records; ``Planner.evaluate`` on it (with the
     run's scene and planner config) replays it exactly, e.g. to look at one deployment trial."""
-
-    def pose(prefix: str) -> NDArray[np.float64]:
-        return row[[f"{prefix}_x_m", f"{prefix}_y_m", f"{prefix}_theta_rad"]].to_numpy(float)
-
-    return pose("start"), pose("target"), np.asarray(row["weights"], float), pose("sensed_hole")
+    start, target, sensed = (recorded_pose(row, p) for p in ("start", "target", "sensed_hole"))
+    return start, target, np.asarray(row["weights"], float), sensed
 
 
 class RolloutWorkers:
