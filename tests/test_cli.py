@@ -78,6 +78,14 @@ def test_plot_draws_one_planning_run(tmp_path, capsys):
     assert main(["replay", str(tmp_path), "phase == 'deploy' and rollout == 0"]) == 0
     out = capsys.readouterr().out
     assert "= the record" in out and (tmp_path / "replay_deploy_2_0.rrd").stat().st_size > 1000
+    # A run recorded before a key existed (here: without planner.train_start_std_m) replays.
+    older = {"scene": to_mapping(SceneConfig()), "planner": to_mapping(config)}
+    del older["planner"]["train_start_std_m"]
+    write_table(
+        run.rollouts, tmp_path / "rollouts.parquet", record("plan", config=older), ROLLOUT_COLUMNS
+    )
+    assert main(["replay", str(tmp_path), "phase == 'deploy' and rollout == 0"]) == 0
+    assert "= the record" in capsys.readouterr().out
     moved = run.rollouts.assign(final_bottom_x_m=run.rollouts["final_bottom_x_m"] + 1e-9)
     write_table(moved, tmp_path / "rollouts.parquet", provenance, ROLLOUT_COLUMNS)
     assert main(["replay", str(tmp_path), "phase == 'deploy'"]) == 1

@@ -178,6 +178,8 @@ def test_first_iteration_goal_is_the_sensed_hole_for_both_methods(tiny_runs):
         (lambda c: c.update(deploy_policy="best_sample"), r"planner\.deploy_policy"),
         (lambda c: c.update(deploy_start_std_m=-0.001), r"planner\.deploy_start_std_m"),
         (lambda c: c.update(deploy_start_std_m=0.002), r"planner\.deploy_start_std_m.*above"),
+        (lambda c: c.update(train_start_std_m=float("nan")), r"planner\.train_start_std_m"),
+        (lambda c: c.update(train_start_std_m=0.002), r"planner\.train_start_std_m.*above"),
         (lambda c: c.update(start_height_m=0.5), r"planner\.start_height_m"),
         (
             lambda c: c["costs"].update(balance="first_iteration_median", spring_energy=0.0),
@@ -250,12 +252,13 @@ def test_seeds_differ_between_sweep_points_and_are_shared_by_the_methods():
             "planner.method": "bilevel",
             "planner.deploy_policy": "last_inserted_mean",
             "planner.deploy_start_std_m": 0.001,
+            "planner.train_start_std_m": 0.001,
         }
     )
     assert start_a == one_level == other_rule == other_policy != start_b
     seeds_a, seeds_b = run_seeds(config, start_a), run_seeds(config, start_b)
-    assert set(seeds_a) == {"noise", "exploration", "deployment"}
-    assert len(set(seeds_a.values())) == 3
+    assert set(seeds_a) == {"noise", "exploration", "deployment", "start"}
+    assert len(set(seeds_a.values())) == 4
     assert not set(seeds_a.values()) & set(seeds_b.values())
     assert run_seeds(replace(config, seed=1), start_a) != seeds_a
 
@@ -338,6 +341,29 @@ def test_deployment_start_offsets_leave_training_and_sensings_alone(tiny_runs):
     assert 0.0002 < offsets.std() < 0.003
     assert (deploy["start_theta_rad"] == planner.start_bottom[2]).all()
     assert not np.array_equal(deploy["final_bottom_x_m"], before["final_bottom_x_m"])
+
+
+def test_training_start_offsets_draw_their_own_stream(tiny_runs):
+    reference = tiny_runs[0].rollouts
+    config = short_config(
+        iterations=2, population_size=3, deploy_policy="final_mean", train_start_std_m=0.001
+    )
+    planner = Planner.from_configs(SceneConfig(), config)
+    rows = planner.run().rollouts
+    train, before = (r[r["phase"] == "train"].reset_index(drop=True) for r in (rows, reference))
+    # The sensed holes and the first iteration's exploration are the nominal run's ...
+    assert np.array_equal(train["sensed_hole_x_m"], before["sensed_hole_x_m"])
+    first = train["iteration"] == 1
+    assert np.array_equal(np.stack(train["weights"][first]), np.stack(before["weights"][first]))
+    # ... every training rollout starts at its own offset in x and y, the same θ ...
+    offsets = train[["start_x_m", "start_y_m"]].to_numpy() - planner.start_bottom[:2]
+    assert len(np.unique(offsets)) == offsets.size
+    assert 0.0002 < offsets.std() < 0.003
+    assert (train["start_theta_rad"] == planner.start_bottom[2]).all()
+    assert not np.array_equal(train["final_bottom_x_m"], before["final_bottom_x_m"])
+    # ... and deployment starts where training was meant to (deploy_start_std_m = 0).
+    deploy = rows[rows["phase"] == "deploy"]
+    assert (deploy[["start_x_m", "start_y_m"]] == planner.start_bottom[:2]).all(axis=None)
 
 
 def test_a_recorded_rollout_replays_exactly(tiny_runs):

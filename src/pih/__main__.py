@@ -133,7 +133,7 @@ def _replay(run: Path, query: str) -> int:
     import numpy as np
     import pandas as pd
 
-    from pih.config import from_mapping
+    from pih.config import from_mapping, with_defaults
     from pih.planner import Planner, PlannerConfig, recorded_pose, recorded_rollout
     from pih.provenance import record as provenance_record
     from pih.recordings import record_insertion
@@ -152,8 +152,10 @@ def _replay(run: Path, query: str) -> int:
         print(f"pih replay {run}: nothing to replay ({why}: {query!r})", file=sys.stderr)
         return 1
     row = rows.iloc[0]
-    scene = from_mapping(SceneConfig, config["scene"], "scene")
-    planner = Planner.from_configs(scene, from_mapping(PlannerConfig, config["planner"], "planner"))
+    # A run recorded before a key existed replays with that key's default (its old behaviour).
+    scene = from_mapping(SceneConfig, with_defaults(SceneConfig, config["scene"]), "scene")
+    planner_config = with_defaults(PlannerConfig, config["planner"])
+    planner = Planner.from_configs(scene, from_mapping(PlannerConfig, planner_config, "planner"))
     start, target, weights, sensed = recorded_rollout(row)
     trace, _ = planner.evaluate(planner.dmp(start, target), weights, sensed)
     name = f"replay_{row['phase']}_{row['iteration']}_{row['rollout']}"

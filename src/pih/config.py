@@ -119,6 +119,20 @@ def _build(cls: type[T], data: Any, key: str) -> T:
     return cls(**{f: _coerce(hints[f], data[f], prefix + f) for f in fields})
 
 
+def with_defaults(cls: type, data: Mapping[str, Any]) -> dict[str, Any]:
+    """``data`` with the keys it lacks filled in from ``cls()``'s defaults, at every level: the
+    config of a record written before those keys existed (a new key's default keeps the
+    behaviour from before it)."""
+
+    def overlay(base: dict[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
+        for name, value in over.items():
+            nested = isinstance(value, Mapping) and isinstance(base.get(name), dict)
+            base[name] = overlay(base[name], value) if nested else value
+        return base
+
+    return overlay(to_mapping(cls()), data)
+
+
 def to_mapping(obj: Any) -> dict[str, Any]:
     """Plain nested dict (tuples as lists) of a config dataclass, the inverse of from_mapping."""
     return json.loads(json.dumps(dataclasses.asdict(obj)))

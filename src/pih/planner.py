@@ -187,6 +187,11 @@ class PlannerConfig:
     # rollout every trial; with it, the trials ask whether the policy tolerates a start the
     # robot reaches only to within σ. Not in the paper.
     deploy_start_std_m: float = 0.0
+    # Each training rollout (sampled and the evaluated mean) starts this far off the nominal
+    # start, x and y each N(0, σ²) from the run's start stream, so the optimizer ranks weights
+    # by how they do from starts the robot reaches only to within σ (robust training; 0: every
+    # training rollout starts at the nominal start, Algorithm 1). Not in the paper.
+    train_start_std_m: float = 0.0
     # Stop early when the best J_inn of the last `convergence_window` iterations varies by less
     # than `convergence_tolerance` relative to its mean; 0 runs the whole budget (the paper's
     # bands compare runs over the same iterations).
@@ -215,14 +220,15 @@ class PlannerConfig:
         require(
             self.deploy_trials >= 1, prefix + "deploy_trials", "an integer >= 1", self.deploy_trials
         )
-        require(
-            math.isfinite(self.deploy_start_std_m)
-            and 0 <= self.deploy_start_std_m <= self.start_height_m / 4,
-            prefix + "deploy_start_std_m",
-            f"a std >= 0 m and <= start_height_m / 4 ({self.start_height_m / 4:g} m), so that "
-            "deployment starts stay above the hole's top surface",
-            self.deploy_start_std_m,
-        )
+        for key in ("train_start_std_m", "deploy_start_std_m"):
+            std = getattr(self, key)
+            require(
+                math.isfinite(std) and 0 <= std <= self.start_height_m / 4,
+                prefix + key,
+                f"a std >= 0 m and <= start_height_m / 4 ({self.start_height_m / 4:g} m), so "
+                "that offset starts stay above the hole's top surface",
+                std,
+            )
         require(
             self.deploy_policy in DEPLOY_POLICIES,
             prefix + "deploy_policy",
@@ -365,12 +371,14 @@ class OuterLevel:
 def run_seeds(config: PlannerConfig, seed_key: str = "") -> dict[str, int]:
     """The run's independent streams, from ``planner.seed``, ``optimizer.seed`` and the run's
     sweep levels other than the method's (``seed_key``): sensed holes (``noise``), exploration
-    noise, and deployment trials. Runs that differ only in method share them (common random
+    noise, deployment trials, and training starts (``start``, drawn only when
+    ``train_start_std_m`` > 0). Runs that differ only in method share them (common random
     numbers); any other difference gives independent streams."""
     words = np.frombuffer(hashlib.sha256(seed_key.encode()).digest(), dtype=np.uint32)
     root = np.random.SeedSequence([config.seed, config.optimizer.seed, *words.tolist()])
-    noise, exploration, deployment = (int(c.generate_state(1)[0]) for c in root.spawn(3))
-    return {"noise": noise, "exploration": exploration, "deployment": deployment}
+    # Spawned children depend only on their index, so adding a stream keeps the others.
+    names = ("noise", "exploration", "deployment", "start")
+    return {name: int(c.generate_state(1)[0]) for name, c in zip(names, root.spawn(len(names)))}
 
 
 class CostBalance:
@@ -412,7 +420,7 @@ ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
     "sensed_hole_x_m": ("m", "sensed hole x̃_H (eq. 16b)"),
     "sensed_hole_y_m": ("m", "sensed hole y (exact)"),
     "sensed_hole_theta_rad": ("rad", "sensed hole θ (exact)"),
-    "start_x_m": ("m", "peg tip P2 at the start (deploy: offset by deploy_start_std_m), x"),
+    "start_x_m": ("m", "peg tip P2 at the start (offset by train_ or deploy_start_std_m), x"),
     "start_y_m": ("m", "P2 at the start, y"),
     "start_theta_rad": ("rad", "P2 at the start, θ"),
     "target_x_m": ("m", "P2 pose the DMP aims at (sensed hole, or the outer level's), x"),
@@ -701,6 +709,7 @@ class Planner:
         rollout_seconds = 0.0
         evaluate_mean = cfg.deploy_policy == "last_inserted_mean"
         policy, deployed_iteration = None, None
+        start_rng = np.random.default_rng(self.seeds["start"])
         sensed = self.sense_hole(noise)
         for iteration in range(1, cfg.iterations + 1):
             if iteration > 1 and cfg.sensing.redraw == "per_iteration":
@@ -709,9 +718,9 @@ class Planner:
             sigma = optimizer.sigma
             mean = optimizer.mean
             samples = optimizer.ask()
-            batch = [(self.start_bottom, target, w, sensed) for w in samples]
+            batch = [(self.training_start(start_rng), target, w, sensed) for w in samples]
             if evaluate_mean:
-                batch.append((self.start_bottom, target, mean, sensed))
+                batch.append((self.training_start(start_rng), target, mean, sensed))
             t0 = time.perf_counter()
             results = rollouts.evaluate(batch)
             rollout_seconds += time.perf_counter() - t0
@@ -769,6 +778,14 @@ class Planner:
             seconds=time.perf_counter() - started,
             rollout_seconds=rollout_seconds,
         )
+
+    def training_start(self, rng: np.random.Generator) -> NDArray[np.float64]:
+        """A training rollout's start: the nominal one, offset in x and y by
+        N(0, train_start_std_m²) when that is > 0 (no draw otherwise)."""
+        start = self.start_bottom.copy()
+        if self.config.train_start_std_m > 0:
+            start[:2] += rng.normal(0, self.config.train_start_std_m, 2)
+        return start
 
     def deployment_trials(self, outer: OuterLevel) -> list[tuple[NDArray, NDArray, NDArray]]:
         """``deploy_trials`` (start, target, sensed hole) triples from the run's deployment

@@ -36,6 +36,10 @@ DEPLOY_KEYS = ("planner.deploy_policy", "planner.deploy_start_std_m")
 """How the learned policy is deployed (which weights, from how exact a start): training is the
 same for every level, so these are method keys (shared draws) that one-level runs depend on."""
 
+TRAINING_KEYS = ("planner.train_start_std_m",)
+"""How robustly the policy is trained (training from offset starts): a method choice, so these
+are method keys too (shared draws), and one-level runs depend on them."""
+
 VARIANT_KEY = "variant"
 """Sweep key whose levels name entries of the config's ``variants`` (one-at-a-time ablations)."""
 
@@ -44,7 +48,9 @@ def is_method_key(path: str) -> bool:
     """Whether a sweep key selects the method (the method, its outer level, or a named variant)
     rather than the situation (start, seed, noise, scene): runs differing only in such keys
     share their random draws (common random numbers), so their comparison is paired."""
-    return path in (METHOD_KEY, *DEPLOY_KEYS, VARIANT_KEY) or path.startswith(OUTER_PREFIX)
+    return path in (METHOD_KEY, *DEPLOY_KEYS, *TRAINING_KEYS, VARIANT_KEY) or path.startswith(
+        OUTER_PREFIX
+    )
 
 
 def seed_key(point: Mapping[str, Any]) -> str:
