@@ -135,6 +135,10 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
     # 3 starts x 2 seeds x (8 bilevel variants + 6 one-level: the variants that differ from
     # another only in the outer level (ours, sensed_tilt) are skipped)
     assert ablations["plan"] == 3 * 2 * (8 + 6)
+    more_seeds = planned_jobs(snakemake(work, "-n", "--configfile", "config/more_seeds.yaml"))
+    assert more_seeds["plan"] == 4 * 3
+    start_error = planned_jobs(snakemake(work, "-n", "--configfile", "config/start_error.yaml"))
+    assert start_error["plan"] == 4 * 3 * 2
 
 
 @pytest.mark.slow
