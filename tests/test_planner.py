@@ -324,43 +324,44 @@ def test_last_inserted_mean_deploys_the_latest_mean_that_inserted(
     assert record.final_mean_deploy_success_rate == tiny_runs[0].deploy_success_rate
 
 
+def tiny_run_with(**changes) -> tuple[Planner, pd.DataFrame]:
+    """The planner and rollouts of ``tiny_runs[0]``'s config with ``changes``."""
+    config = short_config(iterations=2, population_size=3, deploy_policy="final_mean", **changes)
+    planner = Planner.from_configs(SceneConfig(), config)
+    return planner, planner.run().rollouts
+
+
+def assert_offset_starts(rows: pd.DataFrame, nominal_rows: pd.DataFrame, start: np.ndarray):
+    """Every row starts at its own offset (≈ 1 mm std) from ``start`` in x and y, at its θ, and
+    ends elsewhere than the same row started from ``start``."""
+    offsets = rows[["start_x_m", "start_y_m"]].to_numpy() - start[:2]
+    assert len(np.unique(offsets)) == offsets.size
+    assert 0.0002 < offsets.std() < 0.003
+    assert (rows["start_theta_rad"] == start[2]).all()
+    assert not np.array_equal(rows["final_bottom_x_m"], nominal_rows["final_bottom_x_m"])
+
+
 def test_deployment_start_offsets_leave_training_and_sensings_alone(tiny_runs):
     reference = tiny_runs[0].rollouts
-    config = short_config(
-        iterations=2, population_size=3, deploy_policy="final_mean", deploy_start_std_m=0.001
-    )
-    planner = Planner.from_configs(SceneConfig(), config)
-    rows = planner.run().rollouts
+    planner, rows = tiny_run_with(deploy_start_std_m=0.001)
     train = rows[rows["phase"] == "train"].reset_index(drop=True)
     pd.testing.assert_frame_equal(train, reference[reference["phase"] == "train"])
     deploy, before = rows[rows["phase"] == "deploy"], reference[reference["phase"] == "deploy"]
     assert np.array_equal(deploy["sensed_hole_x_m"], before["sensed_hole_x_m"])
     assert (before[["start_x_m", "start_y_m"]] == planner.start_bottom[:2]).all(axis=None)
-    offsets = deploy[["start_x_m", "start_y_m"]].to_numpy() - planner.start_bottom[:2]
-    assert len(np.unique(offsets)) == offsets.size  # every trial its own start
-    assert 0.0002 < offsets.std() < 0.003
-    assert (deploy["start_theta_rad"] == planner.start_bottom[2]).all()
-    assert not np.array_equal(deploy["final_bottom_x_m"], before["final_bottom_x_m"])
+    assert_offset_starts(deploy, before, planner.start_bottom)
 
 
 def test_training_start_offsets_draw_their_own_stream(tiny_runs):
     reference = tiny_runs[0].rollouts
-    config = short_config(
-        iterations=2, population_size=3, deploy_policy="final_mean", train_start_std_m=0.001
-    )
-    planner = Planner.from_configs(SceneConfig(), config)
-    rows = planner.run().rollouts
+    planner, rows = tiny_run_with(train_start_std_m=0.001)
     train, before = (r[r["phase"] == "train"].reset_index(drop=True) for r in (rows, reference))
     # The sensed holes and the first iteration's exploration are the nominal run's ...
     assert np.array_equal(train["sensed_hole_x_m"], before["sensed_hole_x_m"])
     first = train["iteration"] == 1
     assert np.array_equal(np.stack(train["weights"][first]), np.stack(before["weights"][first]))
     # ... every training rollout starts at its own offset in x and y, the same θ ...
-    offsets = train[["start_x_m", "start_y_m"]].to_numpy() - planner.start_bottom[:2]
-    assert len(np.unique(offsets)) == offsets.size
-    assert 0.0002 < offsets.std() < 0.003
-    assert (train["start_theta_rad"] == planner.start_bottom[2]).all()
-    assert not np.array_equal(train["final_bottom_x_m"], before["final_bottom_x_m"])
+    assert_offset_starts(train, before, planner.start_bottom)
     # ... and deployment starts where training was meant to (deploy_start_std_m = 0).
     deploy = rows[rows["phase"] == "deploy"]
     assert (deploy[["start_x_m", "start_y_m"]] == planner.start_bottom[:2]).all(axis=None)

@@ -17,8 +17,11 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any, TypeVar
 
 from pih.outputs import read_output_provenance, read_provenance
+
+T = TypeVar("T")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -80,6 +83,14 @@ def _first_line(error: Exception) -> str:
     return str(error).splitlines()[0] if str(error) else type(error).__name__
 
 
+def _recorded_config(cls: type[T], config: dict[str, Any], key: str) -> T:
+    """Section ``key`` of a recorded config as ``cls``. A run recorded before a key existed
+    reads with that key's default (its behaviour from before the key)."""
+    from pih.config import from_mapping, with_defaults
+
+    return from_mapping(cls, with_defaults(cls, config[key]), key)
+
+
 def _show(path: Path) -> int:
     import pyarrow.parquet as pq
 
@@ -111,7 +122,6 @@ def _plot(run: Path) -> int:
     import pandas as pd
 
     from pih import plots
-    from pih.config import from_mapping
     from pih.scene_config import SceneConfig
 
     try:
@@ -122,7 +132,7 @@ def _plot(run: Path) -> int:
         first = _first_line(error)
         print(f"{run}: not a planning run directory ({first})", file=sys.stderr)
         return 1
-    scene = from_mapping(SceneConfig, record["config"]["scene"], "scene")
+    scene = _recorded_config(SceneConfig, record["config"], "scene")
     target = run / "run.png"
     plots.save(plots.run_figure(rollouts, paths, scene.hole, run.name), target, provenance=record)
     print(target)
@@ -133,7 +143,6 @@ def _replay(run: Path, query: str) -> int:
     import numpy as np
     import pandas as pd
 
-    from pih.config import from_mapping, with_defaults
     from pih.planner import Planner, PlannerConfig, recorded_pose, recorded_rollout
     from pih.provenance import record as provenance_record
     from pih.recordings import record_insertion
@@ -152,10 +161,8 @@ def _replay(run: Path, query: str) -> int:
         print(f"pih replay {run}: nothing to replay ({why}: {query!r})", file=sys.stderr)
         return 1
     row = rows.iloc[0]
-    # A run recorded before a key existed replays with that key's default (its old behaviour).
-    scene = from_mapping(SceneConfig, with_defaults(SceneConfig, config["scene"]), "scene")
-    planner_config = with_defaults(PlannerConfig, config["planner"])
-    planner = Planner.from_configs(scene, from_mapping(PlannerConfig, planner_config, "planner"))
+    scene = _recorded_config(SceneConfig, config, "scene")
+    planner = Planner.from_configs(scene, _recorded_config(PlannerConfig, config, "planner"))
     start, target, weights, sensed = recorded_rollout(row)
     trace, _ = planner.evaluate(planner.dmp(start, target), weights, sensed)
     name = f"replay_{row['phase']}_{row['iteration']}_{row['rollout']}"

@@ -718,9 +718,10 @@ class Planner:
             sigma = optimizer.sigma
             mean = optimizer.mean
             samples = optimizer.ask()
-            batch = [(self.training_start(start_rng), target, w, sensed) for w in samples]
+            train_std = cfg.train_start_std_m
+            batch = [(self.offset_start(start_rng, train_std), target, w, sensed) for w in samples]
             if evaluate_mean:
-                batch.append((self.training_start(start_rng), target, mean, sensed))
+                batch.append((self.offset_start(start_rng, train_std), target, mean, sensed))
             t0 = time.perf_counter()
             results = rollouts.evaluate(batch)
             rollout_seconds += time.perf_counter() - t0
@@ -779,12 +780,13 @@ class Planner:
             rollout_seconds=rollout_seconds,
         )
 
-    def training_start(self, rng: np.random.Generator) -> NDArray[np.float64]:
-        """A training rollout's start: the nominal one, offset in x and y by
-        N(0, train_start_std_m²) when that is > 0 (no draw otherwise)."""
+    def offset_start(self, rng: np.random.Generator, std_m: float) -> NDArray[np.float64]:
+        """The nominal start, offset in x and y by N(0, std_m²) when std_m > 0 (no draw
+        otherwise): a training rollout's (``train_start_std_m``) or a deployment trial's
+        (``deploy_start_std_m``)."""
         start = self.start_bottom.copy()
-        if self.config.train_start_std_m > 0:
-            start[:2] += rng.normal(0, self.config.train_start_std_m, 2)
+        if std_m > 0:
+            start[:2] += rng.normal(0, std_m, 2)
         return start
 
     def deployment_trials(self, outer: OuterLevel) -> list[tuple[NDArray, NDArray, NDArray]]:
@@ -794,10 +796,8 @@ class Planner:
         rng = np.random.default_rng(self.seeds["deployment"])
         n = self.config.deploy_trials
         sensings = [self.sense_hole(rng) for _ in range(n)]
-        starts = [self.start_bottom.copy() for _ in range(n)]
-        if self.config.deploy_start_std_m > 0:  # drawn after the holes: those stay the same
-            for start, offset in zip(starts, rng.normal(0, self.config.deploy_start_std_m, (n, 2))):
-                start[:2] += offset
+        # Drawn after the holes, so the holes are the same for every deploy_start_std_m.
+        starts = [self.offset_start(rng, self.config.deploy_start_std_m) for _ in range(n)]
         return [
             (start, self.target(outer, sensed), sensed)
             for start, sensed in zip(starts, sensings, strict=True)
