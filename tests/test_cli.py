@@ -1,10 +1,12 @@
 """The command line: `pih show` and `pih provenance`, on good and bad files."""
 
+import copy
+
 import pandas as pd
 import pytest
 
 from pih.__main__ import main
-from pih.outputs import write_table
+from pih.outputs import read_provenance, write_table
 from pih.provenance import record
 
 
@@ -47,17 +49,20 @@ def test_unknown_key_is_an_error_naming_the_keys(table, capsys):
     assert '"noise": 7' in capsys.readouterr().out
 
 
-def test_plot_draws_one_planning_run(tmp_path, capsys):
+@pytest.fixture(scope="module")
+def planning_run():
+    """A two-iteration planning run (deploying its latest inserting mean and its final mean)
+    with the provenance a plan job writes: its config, seed key and cost divisors."""
     from pih.config import to_mapping
     from pih.dmp import DmpConfig
     from pih.optimizers import OptimizerConfig
-    from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS, Planner, PlannerConfig, replace
+    from pih.planner import Planner, PlannerConfig, replace
     from pih.scene_config import SceneConfig
 
     config = replace(
         PlannerConfig(),
         iterations=2,
-        deploy_trials=1,
+        deploy_trials=2,
         deploy_policy="last_inserted_mean",  # the figure also draws the mean's rollouts
         settle_s=0.1,
         dmp=DmpConfig(duration_s=1.0),
@@ -65,10 +70,25 @@ def test_plot_draws_one_planning_run(tmp_path, capsys):
     )
     run = Planner.from_configs(SceneConfig(), config).run()
     provenance = record(
-        "plan", config={"scene": to_mapping(SceneConfig()), "planner": to_mapping(config)}
+        "plan",
+        config={"scene": to_mapping(SceneConfig()), "planner": to_mapping(config)},
+        extra={"seed_key": "", "result": {"cost_divisors": run.cost_divisors}},
     )
-    write_table(run.rollouts, tmp_path / "rollouts.parquet", provenance, ROLLOUT_COLUMNS)
-    write_table(run.best_paths, tmp_path / "best_paths.parquet", provenance, PATH_COLUMNS)
+    return run, provenance
+
+
+def write_run(directory, run, provenance):
+    from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS
+
+    write_table(run.rollouts, directory / "rollouts.parquet", provenance, ROLLOUT_COLUMNS)
+    write_table(run.best_paths, directory / "best_paths.parquet", provenance, PATH_COLUMNS)
+
+
+def test_plot_draws_one_planning_run(tmp_path, capsys, planning_run):
+    from pih.planner import ROLLOUT_COLUMNS
+
+    run, provenance = planning_run
+    write_run(tmp_path, run, provenance)
     assert main(["plot", str(tmp_path)]) == 0
     assert (tmp_path / "run.png").stat().st_size > 10_000
     assert main(["plot", str(tmp_path / "missing")]) == 1
@@ -79,7 +99,7 @@ def test_plot_draws_one_planning_run(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "= the record" in out and (tmp_path / "replay_deploy_2_0.rrd").stat().st_size > 1000
     # A run recorded before a key existed (here: without planner.train_start_std_m) replays.
-    older = {"scene": to_mapping(SceneConfig()), "planner": to_mapping(config)}
+    older = copy.deepcopy(provenance["config"])
     del older["planner"]["train_start_std_m"]
     write_table(
         run.rollouts, tmp_path / "rollouts.parquet", record("plan", config=older), ROLLOUT_COLUMNS
@@ -94,3 +114,31 @@ def test_plot_draws_one_planning_run(tmp_path, capsys):
     assert "no row matches" in capsys.readouterr().err
     assert main(["replay", str(tmp_path), "phase ==="]) == 1
     assert "pih replay" in capsys.readouterr().err
+
+
+def test_redeploy_deploys_the_policies_again_from_offset_starts(tmp_path, capsys, planning_run):
+    run, provenance = planning_run
+    write_run(tmp_path, run, provenance)
+    output = tmp_path / "redeployed.parquet"
+    # At the recorded start std (0), the redeployment is the recorded one, in both phases.
+    assert main(["redeploy", str(tmp_path), "--start-std-m", "0", "--output", str(output)]) == 0
+    again = pd.read_parquet(output)
+    deploy = run.rollouts[run.rollouts["phase"].str.startswith("deploy")].reset_index(drop=True)
+    pd.testing.assert_frame_equal(again.drop(columns="run"), deploy)
+    assert (again["run"] == tmp_path.name).all()
+    assert "1 runs: deployment success" in capsys.readouterr().out
+    # Offset starts: same holes and targets, other starts.
+    assert main(["redeploy", str(tmp_path), "--start-std-m", "0.001", "--output", str(output)]) == 0
+    offset = pd.read_parquet(output)
+    for column in ("sensed_hole_x_m", "target_x_m", "weights"):
+        assert offset[column].equals(again[column])
+    assert not offset["start_x_m"].equals(again["start_x_m"])
+    assert read_provenance(output)["config"] == {"deploy_start_std_m": 0.001}
+
+    assert main(["redeploy", str(tmp_path), "--start-std-m", "-1"]) == 1
+    assert "--start-std-m" in capsys.readouterr().err
+    assert main(["redeploy", str(tmp_path / "missing"), "--start-std-m", "0"]) == 1
+    assert "cannot redeploy" in capsys.readouterr().err
+    write_run(tmp_path, run, {**provenance, "seed_key": "another point"})
+    assert main(["redeploy", str(tmp_path), "--start-std-m", "0"]) == 1
+    assert "not the run's seeds" in capsys.readouterr().err

@@ -341,15 +341,36 @@ def assert_offset_starts(rows: pd.DataFrame, nominal_rows: pd.DataFrame, start: 
     assert not np.array_equal(rows["final_bottom_x_m"], nominal_rows["final_bottom_x_m"])
 
 
-def test_deployment_start_offsets_leave_training_and_sensings_alone(tiny_runs):
+@pytest.fixture(scope="module")
+def offset_deployment() -> tuple[Planner, pd.DataFrame]:
+    return tiny_run_with(deploy_start_std_m=0.001)
+
+
+def test_deployment_start_offsets_leave_training_and_sensings_alone(tiny_runs, offset_deployment):
     reference = tiny_runs[0].rollouts
-    planner, rows = tiny_run_with(deploy_start_std_m=0.001)
+    planner, rows = offset_deployment
     train = rows[rows["phase"] == "train"].reset_index(drop=True)
     pd.testing.assert_frame_equal(train, reference[reference["phase"] == "train"])
     deploy, before = rows[rows["phase"] == "deploy"], reference[reference["phase"] == "deploy"]
     assert np.array_equal(deploy["sensed_hole_x_m"], before["sensed_hole_x_m"])
     assert (before[["start_x_m", "start_y_m"]] == planner.start_bottom[:2]).all(axis=None)
     assert_offset_starts(deploy, before, planner.start_bottom)
+
+
+def test_redeploying_a_run_gives_the_deployment_another_start_std_would_have(
+    tiny_runs, offset_deployment
+):
+    reference = tiny_runs[0].rollouts
+    planner, rows = offset_deployment
+    nominal = Planner(planner.scene, replace(planner.config, deploy_start_std_m=0.0))
+    for redeployer, run, twin in ((planner, reference, rows), (nominal, rows, reference)):
+        again = redeployer.redeploy(run, [1.0, 1.0, 1.0])
+        recorded = twin[twin["phase"] == "deploy"].reset_index(drop=True)
+        pd.testing.assert_frame_equal(again, recorded)  # every column, to the bit
+    with pytest.raises(ValueError, match="not the run's seeds"):
+        Planner(planner.scene, planner.config, seed_key="another point").redeploy(rows, [1.0] * 3)
+    with pytest.raises(ValueError, match="10 recorded trials"):
+        Planner(planner.scene, replace(planner.config, deploy_trials=2)).redeploy(rows, [1.0] * 3)
 
 
 def test_training_start_offsets_draw_their_own_stream(tiny_runs):

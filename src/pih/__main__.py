@@ -6,6 +6,10 @@
 - ``pih replay RUN_DIR QUERY``: simulate again the first rollout of the run matching a pandas
   query (e.g. ``"phase == 'deploy' and rollout == 3"``), check it ends where the record says,
   and write it as a Rerun recording ``RUN_DIR/replay_<phase>_<iteration>_<rollout>.rrd``;
+- ``pih redeploy RUN_DIR... --start-std-m S``: deploy each run's learned policy again, as it
+  would have deployed with ``planner.deploy_start_std_m = S`` (same sensed holes and targets,
+  starts from its deployment stream), and print the success rates with a 95 % Wilson interval
+  over the runs; ``--output F`` writes the rollouts as Parquet with provenance;
 - ``pih schema``: the JSON schema of the study's config;
 - ``pih job TARGET [--configfile F ...]``: run the workflow script that makes ``TARGET`` in this
   process, outside Snakemake, for debugging (``python -m pdb -m pih job TARGET``).
@@ -40,6 +44,15 @@ def main(argv: list[str] | None = None) -> int:
     replay.add_argument(
         "query", help="pandas query on rollouts.parquet, e.g. \"phase == 'deploy'\""
     )
+    redeploy = commands.add_parser(
+        "redeploy", help="deploy runs' learned policies again from offset starts"
+    )
+    redeploy.add_argument("runs", nargs="+", type=Path, help="results/planning/<point>/ dirs")
+    redeploy.add_argument(
+        "--start-std-m", type=float, required=True, help="start offset std in x and y, m"
+    )
+    redeploy.add_argument("--output", type=Path, help="Parquet file of the redeployed rollouts")
+    redeploy.add_argument("--workers", type=int, default=1, help="rollout processes per run")
     job = commands.add_parser("job", help="run the workflow script that makes TARGET, here")
     job.add_argument(
         "target", help="an output path, e.g. results/validation/point/offset_m~0.001.parquet"
@@ -54,6 +67,8 @@ def main(argv: list[str] | None = None) -> int:
         return _plot(args.run)
     if args.command == "replay":
         return _replay(args.run, args.query)
+    if args.command == "redeploy":
+        return _redeploy(args.runs, args.start_std_m, args.output, args.workers)
     if args.command == "schema":
         from pih.study_config import config_schema
 
@@ -177,6 +192,75 @@ def _replay(run: Path, query: str) -> int:
         f" {'= the record' if same else 'DIFFERS from the record'}"
     )
     return 0 if same else 1
+
+
+def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers: int) -> int:
+    import pandas as pd
+
+    from pih.aggregate import wilson_interval
+    from pih.config import ConfigError, to_mapping
+    from pih.outputs import write_table
+    from pih.planner import ROLLOUT_COLUMNS, Planner, PlannerConfig, replace
+    from pih.provenance import canonical_json
+    from pih.provenance import record as provenance_record
+    from pih.scene import PegInHoleScene
+    from pih.scene_config import SceneConfig
+
+    loaded = []
+    for run in runs:  # every run is read and checked before any is simulated
+        path = run / "rollouts.parquet"
+        try:
+            rollouts = pd.read_parquet(path)
+            record = read_provenance(path)
+            scene = _recorded_config(SceneConfig, record["config"], "scene")
+            recorded_config = _recorded_config(PlannerConfig, record["config"], "planner")
+            if "weights" not in rollouts:
+                raise ValueError("it predates recorded weights")
+        except Exception as error:  # noqa: BLE001 - an unreadable run: one clear line
+            print(f"pih redeploy {run}: cannot redeploy ({_first_line(error)})", file=sys.stderr)
+            return 1
+        try:
+            config = replace(recorded_config, deploy_start_std_m=start_std_m)
+        except ConfigError as error:
+            print(f"pih redeploy: --start-std-m: {_first_line(error)}", file=sys.stderr)
+            return 1
+        loaded.append((run, rollouts, record, scene, recorded_config, config))
+    scenes: dict[str, PegInHoleScene] = {}
+    tables, rates = [], []
+    for run, rollouts, record, scene, recorded_config, config in loaded:
+        scene = scene.replace(solver__log_contact_patches=False)  # as the plan job's planner
+        key = canonical_json(to_mapping(scene))
+        scenes.setdefault(key, PegInHoleScene(scene))
+        planner = Planner(scenes[key], config, record["seed_key"])
+        try:
+            table = planner.redeploy(rollouts, record["result"]["cost_divisors"], workers)
+        except ValueError as error:  # the record and its seeds disagree
+            print(f"pih redeploy {run}: {_first_line(error)}", file=sys.stderr)
+            return 1
+        recorded = rollouts.groupby("phase")["success"].mean()
+        rate = table[table["phase"] == "deploy"]["success"].mean()
+        rates.append(rate)
+        print(
+            f"{run.name}: deployed {rate:.0%} from starts offset by N(0, ({start_std_m:g} m)²) "
+            f"(recorded {recorded['deploy']:.0%} at "
+            f"{recorded_config.deploy_start_std_m:g} m)"
+        )
+        tables.append(table.assign(run=run.name))
+    low, high = wilson_interval(sum(rates), len(rates))
+    print(
+        f"{len(rates)} runs: deployment success {sum(rates) / len(rates):.3g} (95 % Wilson "
+        f"interval over runs {low:.2f}-{high:.2f})"
+    )
+    if output is not None:
+        provenance = provenance_record(
+            "redeploy",
+            config={"deploy_start_std_m": start_std_m},
+            inputs=[run / "rollouts.parquet" for run in runs],
+        )
+        columns = {**ROLLOUT_COLUMNS, "run": ("", "the planning run's directory name")}
+        write_table(pd.concat(tables, ignore_index=True), output, provenance, columns)
+        print(output)
+    return 0
 
 
 def _job(target: str, configfiles: list[str] | None) -> int:

@@ -384,9 +384,10 @@ def run_seeds(config: PlannerConfig, seed_key: str = "") -> dict[str, int]:
 class CostBalance:
     """eq. 11's total, optionally with each term divided by its first-iteration median."""
 
-    def __init__(self, config: CostConfig) -> None:
-        self.divisors = np.ones(len(COST_TERMS))
-        self._fixed = config.balance == "none"
+    def __init__(self, config: CostConfig, divisors: list[float] | None = None) -> None:
+        """``divisors``: a run's recorded ones (its provenance's ``cost_divisors``), kept."""
+        self.divisors = np.ones(len(COST_TERMS)) if divisors is None else np.asarray(divisors)
+        self._fixed = config.balance == "none" or divisors is not None
 
     def totals(self, terms: list[CostTerms | None]) -> NDArray[np.float64]:
         """J_inn of each rollout (NaN for diverged ones); fixes the divisors on first use."""
@@ -789,19 +790,67 @@ class Planner:
             start[:2] += rng.normal(0, std_m, 2)
         return start
 
-    def deployment_trials(self, outer: OuterLevel) -> list[tuple[NDArray, NDArray, NDArray]]:
-        """``deploy_trials`` (start, target, sensed hole) triples from the run's deployment
-        stream: each hole freshly sensed (one-level aims at it, bilevel where its outer level
-        puts the goal), then each start offset in x and y by N(0, deploy_start_std_m²)."""
+    def deployment_draws(self) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+        """``deploy_trials`` (start, sensed hole) pairs from the run's deployment stream: each
+        hole freshly sensed, then each start offset in x and y by N(0, deploy_start_std_m²)."""
         rng = np.random.default_rng(self.seeds["deployment"])
         n = self.config.deploy_trials
         sensings = [self.sense_hole(rng) for _ in range(n)]
         # Drawn after the holes, so the holes are the same for every deploy_start_std_m.
         starts = [self.offset_start(rng, self.config.deploy_start_std_m) for _ in range(n)]
+        return list(zip(starts, sensings, strict=True))
+
+    def deployment_trials(self, outer: OuterLevel) -> list[tuple[NDArray, NDArray, NDArray]]:
+        """The (start, target, sensed hole) of each deployment trial: one-level aims at the
+        freshly sensed hole, bilevel where its outer level puts the goal."""
         return [
-            (start, self.target(outer, sensed), sensed)
-            for start, sensed in zip(starts, sensings, strict=True)
+            (start, self.target(outer, sensed), sensed) for start, sensed in self.deployment_draws()
         ]
+
+    def redeployment(self, recorded: pd.DataFrame) -> list[Rollout]:
+        """The deployment a run would have made with this planner's ``deploy_start_std_m``:
+        the recorded trials' policy, targets and sensed holes (rows of one deployment phase of
+        its ``rollouts.parquet``, by trial), from the starts this deployment stream draws. The
+        holes are drawn before the starts, so the stream must give the recorded holes back: a
+        check that this planner has the run's seeds and trial count."""
+        rows = recorded.sort_values("rollout")
+        draws = self.deployment_draws()
+        if len(rows) != len(draws):
+            raise ValueError(f"{len(rows)} recorded trials, deploy_trials is {len(draws)}")
+        trials = []
+        for (_, row), (start, sensed) in zip(rows.iterrows(), draws):
+            if not np.array_equal(sensed, recorded_pose(row, "sensed_hole")):
+                raise ValueError(
+                    f"trial {row['rollout']}: the deployment stream senses the hole at {sensed}, "
+                    f"not where the record does (not the run's seeds)"
+                )
+            weights = np.asarray(row["weights"], float)
+            trials.append((start, recorded_pose(row, "target"), weights, sensed))
+        return trials
+
+    def redeploy(
+        self, rollouts: pd.DataFrame, cost_divisors: list[float], workers: int = 1
+    ) -> pd.DataFrame:
+        """The deployment phases of a run's ``rollouts.parquet`` (``deploy``, and
+        ``deploy_final_mean`` if recorded) deployed again with this planner's
+        ``deploy_start_std_m`` (:meth:`redeployment`): rows in the same columns, J_inn balanced
+        with the run's ``cost_divisors``."""
+        recorder = RunRecorder(self.scene.hole_pose, self.config.success_tolerance_m, self.scene)
+        balance = CostBalance(self.config.costs, cost_divisors)
+        done: dict[bytes, list[tuple[Trace, CostTerms | None]]] = {}
+        with RolloutWorkers(self, workers) as pool:
+            for phase in ("deploy", "deploy_final_mean"):
+                recorded = rollouts[rollouts["phase"] == phase]
+                if recorded.empty:
+                    continue
+                trials = self.redeployment(recorded)
+                # Both phases deploy one policy in the same situations when no mean inserted.
+                policy = np.asarray(trials[0][2]).tobytes()
+                if policy not in done:
+                    done[policy] = pool.evaluate(trials)
+                iterations = int(recorded["iteration"].iloc[0])
+                recorder.add_deployment(phase, iterations, trials, done[policy], balance)
+        return pd.DataFrame(recorder.rows, columns=list(ROLLOUT_COLUMNS))
 
     def _converged(self, best_costs: list[float]) -> bool:
         window = self.config.convergence_window
