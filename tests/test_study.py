@@ -9,6 +9,8 @@ from pih.aggregate import (
     ablation_table,
     cost_bands,
     final_success_fraction,
+    paired_table,
+    sign_test_p,
     success_table,
     wilson_interval,
 )
@@ -98,6 +100,37 @@ def test_bands_and_success_table_per_method_and_dimension():
     # The ablation table pools the replicates (seeds, starts) and keeps the compared dimensions.
     dims = pd.DataFrame({"dimension": ["all", "planner.seed", "variant", "planner.start_x_m"]})
     assert ablation_table(dims)["dimension"].tolist() == ["all", "variant"]
+
+
+def test_sign_test_known_values():
+    assert sign_test_p(12, 0) == pytest.approx(2 / 2**12)  # 0.00049, README's 12 of 12
+    assert sign_test_p(10, 0) == pytest.approx(2 / 2**10)
+    assert sign_test_p(3, 3) == 1.0 and sign_test_p(0, 0) == 1.0
+    assert sign_test_p(5, 2) == sign_test_p(2, 5) == pytest.approx(2 * (1 + 7 + 21) / 2**7)
+
+
+def test_paired_table_compares_methods_at_the_points_both_ran():
+    keys = ["planner.method", "variant", "planner.seed"]
+    summaries = pd.DataFrame(
+        {
+            "method": ["bilevel", "one_level"] * 4 + ["bilevel"],
+            "variant": ["paper"] * 4 + ["other"] * 4 + ["paper"],
+            "planner.seed": ["0", "0", "1", "1", "0", "0", "1", "1", "2"],
+            "deploy_success_rate": [1.0, 0.2, 0.5, 0.5, 0.9, 0.0, 0.0, 0.3, 1.0],
+        }
+    )
+    table = paired_table(summaries, keys)
+    # Seed 2 ran one method only: no pair. Seeds are replicates: no per-seed rows.
+    assert table["dimension"].tolist() == ["all", "variant", "variant"]
+    overall = table.iloc[0]
+    assert (overall["method"], overall["versus"]) == ("bilevel", "one_level")
+    assert (overall["pairs"], overall["better"], overall["worse"], overall["tied"]) == (4, 2, 1, 1)
+    assert overall["mean_difference"] == pytest.approx((0.8 + 0.0 + 0.9 - 0.3) / 4)
+    assert overall["sign_test_p"] == pytest.approx(sign_test_p(2, 1))
+    paper = table[table["level"] == "paper"].iloc[0]
+    assert (paper["pairs"], paper["better"], paper["tied"]) == (2, 1, 1)
+    with pytest.raises(ValueError):  # two runs of one method at one point cannot be paired
+        paired_table(pd.concat([summaries, summaries.iloc[:1]]), keys)
 
 
 def test_sweep_points_skip_repeated_one_level_runs_and_reject_bad_sweeps():

@@ -94,9 +94,25 @@ def test_planning_rows_are_the_overall_rows_with_the_papers_claim():
 
 def test_summary_names_the_code_version_and_links_the_tables():
     variants = _comparison().assign(chosen=False, max_rel_err_pct=np.nan)
-    text = summary_markdown(
-        _comparison(), variants, _success(), "abc123", {"success": "planning/s.md"}
+    paired = pd.DataFrame(
+        {
+            "method": ["bilevel/deepest_explored", "bilevel/deepest_explored"],
+            "dimension": ["all", "variant"],
+            "level": ["all", "paper"],
+            "versus": ["one_level", "one_level"],
+            "pairs": [12, 6],
+            "better": [12, 6],
+            "worse": [0, 0],
+            "tied": [0, 0],
+            "mean_difference": [0.89, 0.9],
+            "sign_test_p": [0.000488, 0.03125],
+        }
     )
+    text = summary_markdown(
+        _comparison(), variants, _success(), paired, "abc123", {"success": "planning/s.md"}
+    )
+    assert "| bilevel/deepest_explored | one_level | 12 | 12 | 0 | 0 | 0.89 | 0.000488 |" in text
+    assert "0.03125" not in text  # only the overall comparison
     assert "`abc123`" in text
     assert "- [success](planning/s.md)" in text
     assert text.index("Would the learned policy insert") < text.index("Whitney")

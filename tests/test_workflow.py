@@ -252,6 +252,9 @@ def test_smoke_study_outputs_carry_provenance(smoke_run):
         "bilevel/explored_argmin",
         "bilevel/deepest_explored",
     }
+    paired = pd.read_parquet(results / "planning" / "summary" / "paired.parquet")
+    assert len(paired) == 3 and (paired["pairs"] == 2).all()  # 3 method pairs at 2 starts
+    assert "| one_level |" in summary  # the pairs against one-level
     assert (results / "planning" / "summary" / "fig_deploy_success.png").stat().st_size > 10_000
     bands = pd.read_parquet(results / "planning" / "summary" / "cost_bands.parquet")
     per_start = bands[bands["dimension"] == "planner.start_x_m"]

@@ -5,6 +5,7 @@ statistics.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -233,6 +234,69 @@ def _median_or_never(values: pd.Series, runs: int) -> float:
     ordered = np.concatenate([reached, np.full(runs - len(reached), np.inf)])
     median = float(np.median(ordered))
     return median if math.isfinite(median) else math.nan
+
+
+PAIRED_COLUMNS: dict[str, tuple[str, str]] = {
+    **_LEVEL_COLUMNS,
+    "versus": ("", "the method compared against, at the same sweep points"),
+    "pairs": (
+        "1",
+        "sweep points both methods ran: the same levels but the method's, so the same draws",
+    ),
+    "better": ("1", "pairs where `method` deployed more often than `versus`"),
+    "worse": ("1", "pairs where `method` deployed less often"),
+    "tied": ("1", "pairs with equal deployment success"),
+    "mean_difference": (
+        "1",
+        "mean over pairs of the deployment success of `method` minus that of `versus`",
+    ),
+    "sign_test_p": ("1", "two-sided exact sign test over the untied pairs"),
+}
+
+
+def sign_test_p(better: int, worse: int) -> float:
+    """Two-sided exact sign test: the probability of a split of the untied pairs at least this
+    uneven if either method were equally likely to do better."""
+    untied = better + worse
+    tail = sum(math.comb(untied, k) for k in range(min(better, worse) + 1)) / 2**untied
+    return min(1.0, 2 * tail)
+
+
+def paired_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
+    """Every two methods compared at the sweep points both ran (common random numbers make each
+    point a pair), overall and per level of every compared dimension (not start or seed, where
+    a level holds one pair): which deployed more often, the mean difference, a sign test."""
+    points = split_keys(sweep_keys)
+
+    def table(part: pd.DataFrame) -> pd.DataFrame:
+        success = part.assign(point=0).set_index(["point", *points, "method"])
+        wide = success["deploy_success_rate"].unstack("method")  # duplicate runs: an error
+        rows = []
+        for a, b in itertools.combinations(sorted(wide.columns), 2):
+            difference = (wide[a] - wide[b]).dropna()
+            if difference.empty:
+                continue
+            better, worse = int((difference > 0).sum()), int((difference < 0).sum())
+            rows.append(
+                {
+                    "method": a,
+                    "versus": b,
+                    "pairs": len(difference),
+                    "better": better,
+                    "worse": worse,
+                    "tied": len(difference) - better - worse,
+                    "mean_difference": float(difference.mean()),
+                    "sign_test_p": sign_test_p(better, worse),
+                }
+            )
+        return pd.DataFrame(
+            rows, columns=[c for c in PAIRED_COLUMNS if c not in ("dimension", "level")]
+        )
+
+    paired = _by_dimension(summaries, sweep_keys, table)
+    return paired[~paired["dimension"].isin(REPLICATE_KEYS)][list(PAIRED_COLUMNS)].reset_index(
+        drop=True
+    )
 
 
 def success_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:

@@ -103,10 +103,17 @@ def planning_rows(success: pd.DataFrame) -> pd.DataFrame:
     )
 
 
+def paired_rows(paired: pd.DataFrame) -> pd.DataFrame:
+    """The overall rows of :func:`pih.aggregate.paired_table`."""
+    overall = paired[paired["dimension"] == "all"]
+    return overall.drop(columns=["dimension", "level"]).reset_index(drop=True)
+
+
 def summary_markdown(
     comparison: pd.DataFrame,
     variants: pd.DataFrame,
     success: pd.DataFrame,
+    paired: pd.DataFrame,
     code_version: str,
     links: Mapping[str, str],
 ) -> str:
@@ -125,6 +132,11 @@ observation. `median_goal_iteration`: the first iteration whose goal was within 
 tolerance of the true hole (median over runs).
 
 {markdown_table(planning_rows(success), "{:.3g}")}
+
+Paired over the sweep points both methods ran (the same random draws): at how many `method`
+deployed more often than `versus`, less often or equally, and a two-sided exact sign test.
+
+{markdown_table(paired_rows(paired), "{:.3g}")}
 
 ## Hydroelastic contact vs Whitney's theory (paper Tables 2–3)
 

@@ -41,6 +41,12 @@ rule planning_aggregate:
             caption="../report/success.rst",
             category="§3 Planning: one-level vs bilevel",
         ),
+        paired="results/planning/summary/paired.parquet",
+        paired_markdown=report(
+            "results/planning/summary/paired.md",
+            caption="../report/paired.rst",
+            category="§3 Planning: one-level vs bilevel",
+        ),
         ablation="results/planning/summary/ablation.parquet",
         ablation_markdown=report(
             "results/planning/summary/ablation.md",

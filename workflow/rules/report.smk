@@ -3,6 +3,7 @@ rule summary:
         comparison=rules.validation_compare.output.table,
         variants=rules.validation_variants.output.table,
         success=rules.planning_aggregate.output.success,
+        paired=rules.planning_aggregate.output.paired,
     output:
         summary=report(
             "results/summary.md",
@@ -21,6 +22,7 @@ rule summary:
     params:
         links={
             "planning: success per method and sweep level": "planning/summary/success.md",
+            "planning: methods compared pair by pair": "planning/summary/paired.md",
             "planning: ablation": "planning/summary/ablation.md",
             "validation: every offset, model and alignment": "validation/comparison.md",
             "validation: every variant (geometry, margin, solver, contact model)": "validation/variants.md",

@@ -8,11 +8,13 @@ from pih import plots
 from pih.aggregate import (
     BAND_COLUMNS,
     BEST_COST_COLUMNS,
+    PAIRED_COLUMNS,
     SUCCESS_COLUMNS,
     ablation_table,
     best_training_rows,
     cost_bands,
     level_columns,
+    paired_table,
     run_tables,
     run_title,
     success_table,
@@ -28,15 +30,18 @@ with logged(snakemake.log[0]):
     bands = cost_bands(runs, keys)
     success = success_table(summaries, keys)
     ablation = ablation_table(success)
+    paired = paired_table(summaries, keys)
     record = job_provenance(
         snakemake, "planning_aggregate", config={"sweep": snakemake.params.sweep}
     )
     write_table(runs, snakemake.output.runs, record, {**BEST_COST_COLUMNS, **level_columns(keys)})
     write_table(bands, snakemake.output.bands, record, BAND_COLUMNS)
     write_table(success, snakemake.output.success, record, SUCCESS_COLUMNS)
+    write_table(paired, snakemake.output.paired, record, PAIRED_COLUMNS)
     write_table(ablation, snakemake.output.ablation, record, SUCCESS_COLUMNS)
     write_text(snakemake.output.success_markdown, markdown_table(success), record)
     write_text(snakemake.output.success_csv, success.to_csv(index=False))
+    write_text(snakemake.output.paired_markdown, markdown_table(paired), record)
     write_text(snakemake.output.ablation_markdown, markdown_table(ablation), record)
     overall = bands[bands["dimension"] == "all"]
     plots.save(
@@ -58,3 +63,4 @@ with logged(snakemake.log[0]):
         figure = plots.best_paths_figure(pd.read_parquet(source), scene.hole, title, goals)
         plots.save(figure, png, provenance=record)
     print(success.to_string())
+    print(paired.to_string())

@@ -12,6 +12,7 @@ with logged(snakemake.log[0]):
         pd.read_parquet(snakemake.input.comparison),
         pd.read_parquet(snakemake.input.variants),
         success,
+        pd.read_parquet(snakemake.input.paired),
         read_provenance(snakemake.input.success)["code_version"],
         dict(snakemake.params.links),
     )
