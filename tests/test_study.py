@@ -10,6 +10,8 @@ from pih.aggregate import (
     cost_bands,
     final_success_fraction,
     paired_table,
+    robustness_pairs,
+    robustness_table,
     sign_test_p,
     success_table,
     wilson_interval,
@@ -131,6 +133,31 @@ def test_paired_table_compares_methods_at_the_points_both_ran():
     assert (paper["pairs"], paper["better"], paper["tied"]) == (2, 1, 1)
     with pytest.raises(ValueError):  # two runs of one method at one point cannot be paired
         paired_table(pd.concat([summaries, summaries.iloc[:1]]), keys)
+
+
+def test_robustness_table_per_method_and_start_std_counts_each_run_once():
+    deployments = pd.DataFrame(
+        {
+            "method": ["bilevel", "one_level"] * 2 + ["bilevel", "one_level"] * 2,
+            "run": ["b0", "o0", "b1", "o1"] * 2,
+            "planner.seed": ["0", "0", "1", "1"] * 2,
+            "start_std_m": [0.0] * 4 + [0.001] * 4,
+            "deploy_success_rate": [1.0, 0.1, 1.0, 0.0, 0.8, 0.2, 1.0, 0.0],
+        }
+    )
+    again = deployments.iloc[:1]  # a redeployment at the run's own std, identical by design
+    table = robustness_table(pd.concat([deployments, again]))
+    bilevel = table[table["method"] == "bilevel"].set_index("start_std_m")
+    assert bilevel["runs"].tolist() == [2, 2]
+    assert bilevel.loc[0.001, "deploy_success_rate"] == pytest.approx(0.9)
+    assert bilevel["runs_all_inserted"].tolist() == [2, 1]
+    low, high = wilson_interval(1.8, 2)
+    assert (bilevel.loc[0.001, "deploy_ci_low"], bilevel.loc[0.001, "deploy_ci_high"]) == (
+        low,
+        high,
+    )
+    pairs = robustness_pairs(deployments, ["planner.method", "planner.seed"])
+    assert pairs["level"].tolist() == ["0.0", "0.001"] and (pairs["better"] == 2).all()
 
 
 def test_sweep_points_skip_repeated_one_level_runs_and_reject_bad_sweeps():

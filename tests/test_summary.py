@@ -108,9 +108,24 @@ def test_summary_names_the_code_version_and_links_the_tables():
             "sign_test_p": [0.000488, 0.03125],
         }
     )
-    text = summary_markdown(
-        _comparison(), variants, _success(), paired, "abc123", {"success": "planning/s.md"}
+    robustness = pd.DataFrame(
+        {
+            "method": ["one_level"],
+            "start_std_m": [0.001],
+            "runs": [3],
+            "deploy_success_rate": [0.25],
+        }
     )
+    text = summary_markdown(
+        _comparison(),
+        variants,
+        _success(),
+        paired,
+        robustness,
+        "abc123",
+        {"success": "planning/s.md"},
+    )
+    assert "| one_level | 0.001 | 3 | 0.25 |" in text
     assert "| bilevel/deepest_explored | one_level | 12 | 12 | 0 | 0 | 0.89 | 0.000488 |" in text
     assert "0.03125" not in text  # only the overall comparison
     assert "`abc123`" in text

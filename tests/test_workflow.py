@@ -170,6 +170,9 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
             "validation.variants.soft",
         ),
         (lambda c: c["validation"].update(figure_variants=["nope"]), "validation.figure_variants"),
+        (lambda c: c["robustness"].update(start_std_m=[0.01]), "robustness.start_std_m"),
+        (lambda c: c["robustness"].update(start_std_m=[0.001, 0.001]), "robustness.start_std_m"),
+        (lambda c: c.pop("robustness"), "robustness"),
     ],
 )
 def test_bad_config_stops_before_any_job_naming_the_key(tmp_path, edit, message):
@@ -253,7 +256,13 @@ def test_smoke_study_outputs_carry_provenance(smoke_run):
         "bilevel/deepest_explored",
     }
     paired = pd.read_parquet(results / "planning" / "summary" / "paired.parquet")
-    assert len(paired) == 3 and (paired["pairs"] == 2).all()  # 3 method pairs at 2 starts
+    # 3 method pairs at 2 starts: over the runs' own deployments, then per start std (the
+    # runs' own, 0.5 mm, and their redeployments at 1 mm)
+    assert paired["dimension"].tolist() == ["all"] * 3 + ["start_std_m"] * 6
+    assert (paired["pairs"] == 2).all()
+    robustness = pd.read_parquet(results / "planning" / "summary" / "robustness.parquet")
+    assert robustness["start_std_m"].tolist() == [0.0005, 0.001] * 3
+    assert (robustness["runs"] == 2).all()
     assert "| one_level |" in summary  # the pairs against one-level
     assert (results / "planning" / "summary" / "fig_deploy_success.png").stat().st_size > 10_000
     bands = pd.read_parquet(results / "planning" / "summary" / "cost_bands.parquet")

@@ -21,11 +21,8 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import Any, TypeVar
 
 from pih.outputs import read_output_provenance, read_provenance
-
-T = TypeVar("T")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -98,14 +95,6 @@ def _first_line(error: Exception) -> str:
     return str(error).splitlines()[0] if str(error) else type(error).__name__
 
 
-def _recorded_config(cls: type[T], config: dict[str, Any], key: str) -> T:
-    """Section ``key`` of a recorded config as ``cls``. A run recorded before a key existed
-    reads with that key's default (its behaviour from before the key)."""
-    from pih.config import from_mapping, with_defaults
-
-    return from_mapping(cls, with_defaults(cls, config[key]), key)
-
-
 def _show(path: Path) -> int:
     import pyarrow.parquet as pq
 
@@ -137,35 +126,32 @@ def _plot(run: Path) -> int:
     import pandas as pd
 
     from pih import plots
-    from pih.scene_config import SceneConfig
+    from pih.planner import RecordedRun
 
     try:
-        rollouts = pd.read_parquet(run / "rollouts.parquet")
+        recorded = RecordedRun.read(run / "rollouts.parquet")
         paths = pd.read_parquet(run / "best_paths.parquet")
-        record = read_provenance(run / "rollouts.parquet")
     except Exception as error:  # noqa: BLE001 - any unreadable run: one clear line
         first = _first_line(error)
         print(f"{run}: not a planning run directory ({first})", file=sys.stderr)
         return 1
-    scene = _recorded_config(SceneConfig, record["config"], "scene")
     target = run / "run.png"
-    plots.save(plots.run_figure(rollouts, paths, scene.hole, run.name), target, provenance=record)
+    figure = plots.run_figure(recorded.rollouts, paths, recorded.scene.hole, run.name)
+    plots.save(figure, target, provenance=recorded.record)
     print(target)
     return 0
 
 
 def _replay(run: Path, query: str) -> int:
     import numpy as np
-    import pandas as pd
 
-    from pih.planner import Planner, PlannerConfig, recorded_pose, recorded_rollout
+    from pih.planner import Planner, RecordedRun, recorded_pose, recorded_rollout
     from pih.provenance import record as provenance_record
     from pih.recordings import record_insertion
-    from pih.scene_config import SceneConfig
 
     try:
-        rollouts = pd.read_parquet(run / "rollouts.parquet")
-        config = read_provenance(run / "rollouts.parquet")["config"]
+        recorded = RecordedRun.read(run / "rollouts.parquet")
+        rollouts, config = recorded.rollouts, recorded.record["config"]
         rows = rollouts.query(query)
     except Exception as error:  # noqa: BLE001 - a bad run or query: one clear line
         first = _first_line(error)
@@ -176,8 +162,8 @@ def _replay(run: Path, query: str) -> int:
         print(f"pih replay {run}: nothing to replay ({why}: {query!r})", file=sys.stderr)
         return 1
     row = rows.iloc[0]
-    scene = _recorded_config(SceneConfig, config, "scene")
-    planner = Planner.from_configs(scene, _recorded_config(PlannerConfig, config, "planner"))
+    scene = recorded.scene
+    planner = Planner.from_configs(scene, recorded.planner)
     start, target, weights, sensed = recorded_rollout(row)
     trace, _ = planner.evaluate(planner.dmp(start, target), weights, sensed)
     name = f"replay_{row['phase']}_{row['iteration']}_{row['rollout']}"
@@ -198,52 +184,35 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
     import pandas as pd
 
     from pih.aggregate import wilson_interval
-    from pih.config import ConfigError, to_mapping
+    from pih.config import ConfigError
     from pih.outputs import write_table
-    from pih.planner import ROLLOUT_COLUMNS, Planner, PlannerConfig, replace
-    from pih.provenance import canonical_json
+    from pih.planner import ROLLOUT_COLUMNS, RecordedRun
     from pih.provenance import record as provenance_record
-    from pih.scene import PegInHoleScene
-    from pih.scene_config import SceneConfig
 
-    loaded = []
+    recorded = []
     for run in runs:  # every run is read and checked before any is simulated
-        path = run / "rollouts.parquet"
         try:
-            rollouts = pd.read_parquet(path)
-            record = read_provenance(path)
-            scene = _recorded_config(SceneConfig, record["config"], "scene")
-            recorded_config = _recorded_config(PlannerConfig, record["config"], "planner")
-            if "weights" not in rollouts:
-                raise ValueError("it predates recorded weights")
-        except Exception as error:  # noqa: BLE001 - an unreadable run: one clear line
-            print(f"pih redeploy {run}: cannot redeploy ({_first_line(error)})", file=sys.stderr)
-            return 1
-        try:
-            config = replace(recorded_config, deploy_start_std_m=start_std_m)
+            recorded.append(RecordedRun.read(run / "rollouts.parquet"))
+            recorded[-1].redeployment_config(start_std_m)
         except ConfigError as error:
             print(f"pih redeploy: --start-std-m: {_first_line(error)}", file=sys.stderr)
             return 1
-        loaded.append((run, rollouts, record, scene, recorded_config, config))
-    scenes: dict[str, PegInHoleScene] = {}
+        except Exception as error:  # noqa: BLE001 - an unreadable run: one clear line
+            print(f"pih redeploy {run}: cannot redeploy ({_first_line(error)})", file=sys.stderr)
+            return 1
     tables, rates = [], []
-    for run, rollouts, record, scene, recorded_config, config in loaded:
-        scene = scene.replace(solver__log_contact_patches=False)  # as the plan job's planner
-        key = canonical_json(to_mapping(scene))
-        scenes.setdefault(key, PegInHoleScene(scene))
-        planner = Planner(scenes[key], config, record["seed_key"])
+    for run, record in zip(runs, recorded, strict=True):
         try:
-            table = planner.redeploy(rollouts, record["result"]["cost_divisors"], workers)
+            table = record.redeploy(start_std_m, workers)
         except ValueError as error:  # the record and its seeds disagree
             print(f"pih redeploy {run}: {_first_line(error)}", file=sys.stderr)
             return 1
-        recorded = rollouts.groupby("phase")["success"].mean()
+        before = record.rollouts[record.rollouts["phase"] == "deploy"]["success"].mean()
         rate = table[table["phase"] == "deploy"]["success"].mean()
         rates.append(rate)
         print(
             f"{run.name}: deployed {rate:.0%} from starts offset by N(0, ({start_std_m:g} m)²) "
-            f"(recorded {recorded['deploy']:.0%} at "
-            f"{recorded_config.deploy_start_std_m:g} m)"
+            f"(recorded {before:.0%} at {record.planner.deploy_start_std_m:g} m)"
         )
         tables.append(table.assign(run=run.name))
     low, high = wilson_interval(sum(rates), len(rates))

@@ -185,12 +185,77 @@ def run_tables(
         summaries.append(
             {
                 **tags,
+                "start_std_m": planner.get("deploy_start_std_m", 0.0),
                 **run_summary(
                     rollouts, planner["success_tolerance_m"], step, planner["deploy_policy"]
                 ),
             }
         )
     return pd.concat(bests, ignore_index=True), pd.DataFrame(summaries)
+
+
+def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -> pd.DataFrame:
+    """One row per redeployment of a run (``pih redeploy``, the ``redeploy`` rule): its method,
+    run and sweep levels as :func:`run_tables` tags them, the start std and the fraction of the
+    redeployed trials that inserted."""
+    rows = []
+    for path in map(Path, files):
+        record = read_provenance(path)
+        planner = record["config"]["planner"]
+        deploy = pd.read_parquet(path, columns=["phase", "success"]).query("phase == 'deploy'")
+        point = record["sweep_point"]
+        rows.append(
+            {
+                "method": variant(planner),
+                "run": path.parent.name,
+                **{key: str(point[key]) for key in split_keys(sweep_keys)},
+                "start_std_m": planner["deploy_start_std_m"],
+                "deploy_success_rate": float(deploy["success"].mean()),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+ROBUSTNESS_COLUMNS: dict[str, tuple[str, str]] = {
+    "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
+    "start_std_m": ("m", "std of the deployment trials' start offset in x and y"),
+    "runs": ("1", "independent planning runs"),
+    "deploy_success_rate": ("1", "mean over runs of the fraction of trials that inserted"),
+    "deploy_ci_low": ("1", "95 % Wilson interval over runs (each run one observation), low"),
+    "deploy_ci_high": ("1", "95 % Wilson interval over runs, high"),
+    "runs_all_inserted": ("1", "runs whose every trial inserted"),
+}
+
+
+def robustness_table(deployments: pd.DataFrame) -> pd.DataFrame:
+    """Deployment success per method and start std, over the runs' own deployments (at their
+    ``deploy_start_std_m``) and their redeployments (:func:`redeployment_summaries`); a run
+    redeployed at its own std counts once."""
+    unique = deployments.drop_duplicates(["run", "start_std_m"])
+    rows = []
+    for (method, std), runs in unique.groupby(["method", "start_std_m"]):
+        n, rate = len(runs), float(runs["deploy_success_rate"].mean())
+        low, high = wilson_interval(rate * n, n)
+        rows.append(
+            {
+                "method": method,
+                "start_std_m": std,
+                "runs": n,
+                "deploy_success_rate": rate,
+                "deploy_ci_low": low,
+                "deploy_ci_high": high,
+                "runs_all_inserted": int((runs["deploy_success_rate"] == 1).sum()),
+            }
+        )
+    return pd.DataFrame(rows, columns=list(ROBUSTNESS_COLUMNS))
+
+
+def robustness_pairs(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
+    """:func:`paired_table` per start std (dimension ``start_std_m``)."""
+    unique = deployments.drop_duplicates(["run", "start_std_m"])
+    unique = unique.assign(start_std_m=unique["start_std_m"].map(str))
+    paired = paired_table(unique, [*sweep_keys, "start_std_m"])
+    return paired[paired["dimension"] == "start_std_m"].reset_index(drop=True)
 
 
 def split_keys(sweep_keys: list[str]) -> list[str]:

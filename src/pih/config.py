@@ -133,6 +133,12 @@ def with_defaults(cls: type, data: Mapping[str, Any]) -> dict[str, Any]:
     return overlay(to_mapping(cls()), data)
 
 
+def recorded_config(cls: type[T], config: Mapping[str, Any], key: str) -> T:
+    """Section ``key`` of a recorded config (a provenance record's) as ``cls``. A record written
+    before a key existed reads with that key's default (its behaviour from before the key)."""
+    return from_mapping(cls, with_defaults(cls, config[key]), key)
+
+
 def to_mapping(obj: Any) -> dict[str, Any]:
     """Plain nested dict (tuples as lists) of a config dataclass, the inverse of from_mapping."""
     return json.loads(json.dumps(dataclasses.asdict(obj)))

@@ -32,16 +32,18 @@ import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
-from typing import Literal, Self
+from pathlib import Path
+from typing import Any, Literal, Self
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from pih.config import require, require_finite, require_positive
+from pih.config import recorded_config, require, require_finite, require_positive
 from pih.dmp import Dmp, DmpConfig
 from pih.frames import spring_energy
 from pih.optimizers import OptimizerConfig, make_optimizer
+from pih.outputs import read_provenance
 from pih.scene import PegInHoleScene, RobotTrajectory, Trace
 from pih.scene_config import SceneConfig
 
@@ -880,6 +882,43 @@ def recorded_rollout(row: pd.Series) -> Rollout:
     run's scene and planner config) replays it exactly, e.g. to look at one deployment trial."""
     start, target, sensed = (recorded_pose(row, p) for p in ("start", "target", "sensed_hole"))
     return start, target, np.asarray(row["weights"], float), sensed
+
+
+@dataclass(frozen=True)
+class RecordedRun:
+    """A planning run as its ``rollouts.parquet`` records it: the rows, the provenance record,
+    and the run's scene and planner configs (keys the run predates read as their defaults)."""
+
+    rollouts: pd.DataFrame
+    record: dict[str, Any]
+    scene: SceneConfig
+    planner: PlannerConfig
+
+    @classmethod
+    def read(cls, path: str | Path) -> RecordedRun:
+        record = read_provenance(path)
+        config = record["config"]
+        return cls(
+            pd.read_parquet(path),
+            record,
+            recorded_config(SceneConfig, config, "scene"),
+            recorded_config(PlannerConfig, config, "planner"),
+        )
+
+    def redeployment_config(self, start_std_m: float) -> PlannerConfig:
+        """The run's planner config deploying from starts offset by N(0, start_std_m²). A
+        ConfigError for a std out of range, a ValueError for a run that cannot be redeployed."""
+        if "weights" not in self.rollouts:
+            raise ValueError("it predates recorded weights")
+        return replace(self.planner, deploy_start_std_m=start_std_m)
+
+    def redeploy(self, start_std_m: float, workers: int = 1) -> pd.DataFrame:
+        """The run's deployment phases deployed again from starts offset by N(0, start_std_m²):
+        the deployment it would have made with ``planner.deploy_start_std_m = start_std_m``
+        (:meth:`Planner.redeploy`)."""
+        config = self.redeployment_config(start_std_m)
+        planner = Planner.from_configs(self.scene, config, self.record["seed_key"])
+        return planner.redeploy(self.rollouts, self.record["result"]["cost_divisors"], workers)
 
 
 class RolloutWorkers:

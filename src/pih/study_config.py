@@ -3,7 +3,7 @@
 ``config/config.yaml`` has sections ``scene`` (:class:`pih.scene_config.SceneConfig`),
 ``validation`` (:class:`ValidationSection`), ``planner`` (:class:`pih.planner.PlannerConfig`),
 a ``sweep`` whose keys are dotted config paths (``planner.start_x_m``) with lists of levels,
-optional ``variants`` and ``figure_point``. A sweep point overrides those paths; :func:`resolve`
+optional ``variants``, ``figure_point`` and ``robustness`` (:class:`RobustnessSection`). A sweep point overrides those paths; :func:`resolve`
 applies it and validates the result strictly, and :func:`check_study` does so for every point
 before any job runs. :func:`config_schema` is what ``workflow/schemas/config.schema.json`` holds
 (``python -m pih schema`` regenerates it; a test checks they agree). docs/workflow.md explains
@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from pih.config import ConfigError, from_mapping, json_schema, to_mapping
-from pih.planner import PlannerConfig
+from pih.planner import PlannerConfig, replace
 from pih.provenance import canonical_json
 from pih.scene_config import SceneConfig
 from pih.validation import ValidationConfig, validation_scene_config
@@ -207,6 +207,20 @@ class ValidationSection:
         return validation_scene_config(base, self.experiment)
 
 
+@dataclass(frozen=True)
+class RobustnessSection:
+    """Every planning run's learned policy deployed again from inexact starts."""
+
+    # One redeployment of every run per std: the deployment trials from starts offset in x and
+    # y by N(0, std²) (`pih redeploy`, docs/planner.md). Empty: none.
+    start_std_m: tuple[float, ...] = (0.001,)
+
+    def validate(self, prefix: str = "") -> None:
+        stds = [canonical_json(v) for v in self.start_std_m]
+        if len(set(stds)) != len(stds):
+            raise ConfigError(f"{prefix}start_std_m: {list(self.start_std_m)} repeats a level")
+
+
 def scene_with(scene: Mapping[str, Any], overrides: Mapping[str, Any], key: str) -> SceneConfig:
     """The scene with dotted-path ``overrides`` (``"solver.time_step_s"``) applied, validated;
     an error names ``key``, the config entry the overrides came from."""
@@ -249,13 +263,14 @@ def config_schema() -> dict[str, Any]:
                     "additionalProperties": {"type": ["number", "string", "integer", "boolean"]},
                 },
             },
+            "robustness": json_schema(RobustnessSection),
             "figure_point": {
                 "type": "object",
                 "description": "levels of the sweep point whose best paths Fig. 8 shows (per method)",
                 "additionalProperties": {"type": ["number", "string", "integer", "boolean"]},
             },
         },
-        "required": ["scene", "validation", "planner", "sweep", "figure_point"],
+        "required": ["scene", "validation", "planner", "sweep", "figure_point", "robustness"],
         "additionalProperties": False,
     }
 
@@ -322,10 +337,16 @@ def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> N
         data = override(config, {"variant": name})
         from_mapping(SceneConfig, data["scene"], f"variants.{name}: scene")
         from_mapping(PlannerConfig, data["planner"], f"variants.{name}: planner")
+    robustness = from_mapping(RobustnessSection, config["robustness"], "robustness")
     for point in points or [{}]:
         data = override(config, point)
         from_mapping(SceneConfig, data["scene"], "scene")
-        from_mapping(PlannerConfig, data["planner"], "planner")
+        planner = from_mapping(PlannerConfig, data["planner"], "planner")
+        for std in robustness.start_std_m:
+            try:
+                replace(planner, deploy_start_std_m=std)
+            except ConfigError as error:
+                raise ConfigError(f"robustness.start_std_m: {error}") from None
     unknown = sorted(set(config["figure_point"]) - set(config["sweep"]))
     if unknown:
         raise ConfigError(f"figure_point: {unknown} are not sweep keys ({sorted(config['sweep'])})")

@@ -114,6 +114,7 @@ def summary_markdown(
     variants: pd.DataFrame,
     success: pd.DataFrame,
     paired: pd.DataFrame,
+    robustness: pd.DataFrame,
     code_version: str,
     links: Mapping[str, str],
 ) -> str:
@@ -137,6 +138,11 @@ Paired over the sweep points both methods ran (the same random draws): at how ma
 deployed more often than `versus`, less often or equally, and a two-sided exact sign test.
 
 {markdown_table(paired_rows(paired), "{:.3g}")}
+
+From inexact starts: each run's policy deployed again with every trial's start offset in x and
+y by N(0, σ²) (`robustness.start_std_m`), beside its own deployment (the σ of the table above).
+
+{markdown_table(robustness, "{:.3g}")}
 
 ## Hydroelastic contact vs Whitney's theory (paper Tables 2–3)
 

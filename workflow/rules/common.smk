@@ -46,6 +46,14 @@ check_study(config, POINTS)
 # Library edits re-run the jobs whose code changed (Snakemake does not track imports).
 LIBRARY_HASH = library_hash()
 
+# Each planning run is redeployed once per std (file names carry the std as Python prints it).
+ROBUSTNESS_STDS = [str(float(std)) for std in config["robustness"]["start_std_m"]]
+REDEPLOYMENTS = expand(
+    "results/planning/{point}/redeploy_start_std_m~{std}.parquet",
+    point=PLANNING.instance_patterns,
+    std=ROBUSTNESS_STDS,
+)
+
 VALIDATION_OFFSETS = config["validation"]["offsets_m"]
 VALIDATION_VARIANTS = list(config["validation"]["variants"])
 # Each validation run gets its variant's resolved scene as params, so a changed or added
@@ -66,6 +74,7 @@ FIGURE_POINTS = [
 
 wildcard_constraints:
     offset=r"[0-9.e+-]+",
+    std=r"[0-9.e+-]+",
     variant=r"[a-z0-9_]+",
 
 

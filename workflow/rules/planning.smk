@@ -22,6 +22,26 @@ rule plan:
         "../scripts/plan.py"
 
 
+rule redeploy:
+    input:
+        rollouts=f"results/planning/{PLANNING.wildcard_pattern}/rollouts.parquet",
+    output:
+        rollouts=f"results/planning/{PLANNING.wildcard_pattern}/redeploy_start_std_m~{{std}}.parquet",
+    log:
+        f"logs/planning/{PLANNING.wildcard_pattern}_redeploy_start_std_m~{{std}}.log",
+    conda:
+        "../envs/pih.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    params:
+        start_std_m=lambda wildcards: float(wildcards.std),
+        library=LIBRARY_HASH,
+    script:
+        "../scripts/redeploy.py"
+
+
 rule planning_aggregate:
     input:
         rollouts=expand(
@@ -31,6 +51,7 @@ rule planning_aggregate:
         best_paths=expand(
             "results/planning/{point}/best_paths.parquet", point=FIGURE_POINTS
         ),
+        redeployments=REDEPLOYMENTS,
     output:
         runs="results/planning/summary/runs.parquet",
         bands="results/planning/summary/cost_bands.parquet",
@@ -45,6 +66,12 @@ rule planning_aggregate:
         paired_markdown=report(
             "results/planning/summary/paired.md",
             caption="../report/paired.rst",
+            category="§3 Planning: one-level vs bilevel",
+        ),
+        robustness="results/planning/summary/robustness.parquet",
+        robustness_markdown=report(
+            "results/planning/summary/robustness.md",
+            caption="../report/robustness.rst",
             category="§3 Planning: one-level vs bilevel",
         ),
         ablation="results/planning/summary/ablation.parquet",

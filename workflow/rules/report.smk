@@ -4,6 +4,7 @@ rule summary:
         variants=rules.validation_variants.output.table,
         success=rules.planning_aggregate.output.success,
         paired=rules.planning_aggregate.output.paired,
+        robustness=rules.planning_aggregate.output.robustness,
     output:
         summary=report(
             "results/summary.md",
@@ -23,6 +24,7 @@ rule summary:
         links={
             "planning: success per method and sweep level": "planning/summary/success.md",
             "planning: methods compared pair by pair": "planning/summary/paired.md",
+            "planning: deployed from inexact starts": "planning/summary/robustness.md",
             "planning: ablation": "planning/summary/ablation.md",
             "validation: every offset, model and alignment": "validation/comparison.md",
             "validation: every variant (geometry, margin, solver, contact model)": "validation/variants.md",
@@ -51,6 +53,7 @@ rule provenance_index:
             point=PLANNING.instance_patterns,
             file=["rollouts.parquet", "best_paths.parquet", "run.rrd"],
         ),
+        REDEPLOYMENTS,
     output:
         index=report(
             "results/provenance.md",

@@ -1,4 +1,5 @@
-"""Cost bands (Fig. 9), success and ablation tables, best-path figures (Fig. 8) over all runs."""
+"""Over all runs: cost bands (Fig. 9), success, paired, robustness and ablation tables, best-path
+figures (Fig. 8)."""
 
 from pathlib import Path
 
@@ -9,12 +10,16 @@ from pih.aggregate import (
     BAND_COLUMNS,
     BEST_COST_COLUMNS,
     PAIRED_COLUMNS,
+    ROBUSTNESS_COLUMNS,
     SUCCESS_COLUMNS,
     ablation_table,
     best_training_rows,
     cost_bands,
     level_columns,
     paired_table,
+    redeployment_summaries,
+    robustness_pairs,
+    robustness_table,
     run_tables,
     run_title,
     success_table,
@@ -30,7 +35,14 @@ with logged(snakemake.log[0]):
     bands = cost_bands(runs, keys)
     success = success_table(summaries, keys)
     ablation = ablation_table(success)
-    paired = paired_table(summaries, keys)
+    deployments = pd.concat(
+        [summaries, redeployment_summaries(snakemake.input.redeployments, keys)],
+        ignore_index=True,
+    )
+    robustness = robustness_table(deployments)
+    paired = pd.concat(
+        [paired_table(summaries, keys), robustness_pairs(deployments, keys)], ignore_index=True
+    )
     record = job_provenance(
         snakemake, "planning_aggregate", config={"sweep": snakemake.params.sweep}
     )
@@ -38,6 +50,13 @@ with logged(snakemake.log[0]):
     write_table(bands, snakemake.output.bands, record, BAND_COLUMNS)
     write_table(success, snakemake.output.success, record, SUCCESS_COLUMNS)
     write_table(paired, snakemake.output.paired, record, PAIRED_COLUMNS)
+    write_table(robustness, snakemake.output.robustness, record, ROBUSTNESS_COLUMNS)
+    robust_pairs = paired[paired["dimension"] == "start_std_m"]
+    write_text(
+        snakemake.output.robustness_markdown,
+        f"{markdown_table(robustness)}\n\n{markdown_table(robust_pairs)}",
+        record,
+    )
     write_table(ablation, snakemake.output.ablation, record, SUCCESS_COLUMNS)
     write_text(snakemake.output.success_markdown, markdown_table(success), record)
     write_text(snakemake.output.success_csv, success.to_csv(index=False))
@@ -64,3 +83,4 @@ with logged(snakemake.log[0]):
         plots.save(figure, png, provenance=record)
     print(success.to_string())
     print(paired.to_string())
+    print(robustness.to_string())

@@ -13,6 +13,7 @@ with logged(snakemake.log[0]):
         pd.read_parquet(snakemake.input.variants),
         success,
         pd.read_parquet(snakemake.input.paired),
+        pd.read_parquet(snakemake.input.robustness),
         read_provenance(snakemake.input.success)["code_version"],
         dict(snakemake.params.links),
     )
