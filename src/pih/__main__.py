@@ -193,11 +193,15 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
     for run in runs:  # every run is read and checked before any is simulated
         try:
             recorded.append(RecordedRun.read(run / "rollouts.parquet"))
+        except Exception as error:  # noqa: BLE001 - an unreadable run: one clear line
+            print(f"pih redeploy {run}: cannot redeploy ({_first_line(error)})", file=sys.stderr)
+            return 1
+        try:
             recorded[-1].redeployment_config(start_std_m)
         except ConfigError as error:
             print(f"pih redeploy: --start-std-m: {_first_line(error)}", file=sys.stderr)
             return 1
-        except Exception as error:  # noqa: BLE001 - an unreadable run: one clear line
+        except ValueError as error:  # e.g. a run older than recorded weights
             print(f"pih redeploy {run}: cannot redeploy ({_first_line(error)})", file=sys.stderr)
             return 1
     tables, rates = [], []
