@@ -146,7 +146,7 @@ def test_robustness_table_per_method_and_start_std_counts_each_run_once():
         }
     )
     again = deployments.iloc[:1]  # a redeployment at the run's own std, identical by design
-    table = robustness_table(pd.concat([deployments, again]))
+    table = robustness_table(pd.concat([deployments, again]), ["planner.method", "planner.seed"])
     bilevel = table[table["method"] == "bilevel"].set_index("start_std_m")
     assert bilevel["runs"].tolist() == [2, 2]
     assert bilevel.loc[0.001, "deploy_success_rate"] == pytest.approx(0.9)
@@ -158,6 +158,11 @@ def test_robustness_table_per_method_and_start_std_counts_each_run_once():
     )
     pairs = robustness_pairs(deployments, ["planner.method", "planner.seed"])
     assert pairs["level"].tolist() == ["0.0", "0.001"] and (pairs["better"] == 2).all()
+    # A compared dimension (an ablation's variant) splits the table; the replicates do not.
+    variants = deployments.assign(variant=["a", "a", "b", "b"] * 2)
+    split = robustness_table(variants, ["planner.method", "variant", "planner.seed"])
+    assert list(split.columns[:3]) == ["method", "variant", "start_std_m"]
+    assert len(split) == 2 * 2 * 2 and (split["runs"] == 1).all()
 
 
 def test_sweep_points_skip_repeated_one_level_runs_and_reject_bad_sweeps():

@@ -227,18 +227,32 @@ ROBUSTNESS_COLUMNS: dict[str, tuple[str, str]] = {
 }
 
 
-def robustness_table(deployments: pd.DataFrame) -> pd.DataFrame:
-    """Deployment success per method and start std, over the runs' own deployments (at their
-    ``deploy_start_std_m``) and their redeployments (:func:`redeployment_summaries`); a run
-    redeployed at its own std counts once."""
+def compared_keys(sweep_keys: list[str]) -> list[str]:
+    """The sweep dimensions that define a comparison (e.g. ``variant``): not the method's, not
+    the replicates (start, seed)."""
+    return [key for key in split_keys(sweep_keys) if key not in REPLICATE_KEYS]
+
+
+def robustness_columns(sweep_keys: list[str]) -> dict[str, tuple[str, str]]:
+    """Unit specs of :func:`robustness_table`'s columns for a sweep."""
+    method, *rest = ROBUSTNESS_COLUMNS.items()
+    return dict([method, *level_columns(compared_keys(sweep_keys)).items(), *rest])
+
+
+def robustness_table(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
+    """Deployment success per method, level of every compared dimension and start std, over the
+    runs' own deployments (at their ``deploy_start_std_m``) and their redeployments
+    (:func:`redeployment_summaries`); a run redeployed at its own std counts once."""
+    compared = compared_keys(sweep_keys)
     unique = deployments.drop_duplicates(["run", "start_std_m"])
     rows = []
-    for (method, std), runs in unique.groupby(["method", "start_std_m"]):
+    for (method, *levels, std), runs in unique.groupby(["method", *compared, "start_std_m"]):
         n, rate = len(runs), float(runs["deploy_success_rate"].mean())
         low, high = wilson_interval(rate * n, n)
         rows.append(
             {
                 "method": method,
+                **dict(zip(compared, levels, strict=True)),
                 "start_std_m": std,
                 "runs": n,
                 "deploy_success_rate": rate,
@@ -247,7 +261,7 @@ def robustness_table(deployments: pd.DataFrame) -> pd.DataFrame:
                 "runs_all_inserted": int((runs["deploy_success_rate"] == 1).sum()),
             }
         )
-    return pd.DataFrame(rows, columns=list(ROBUSTNESS_COLUMNS))
+    return pd.DataFrame(rows, columns=list(robustness_columns(sweep_keys)))
 
 
 def robustness_pairs(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:

@@ -10,7 +10,6 @@ from pih.aggregate import (
     BAND_COLUMNS,
     BEST_COST_COLUMNS,
     PAIRED_COLUMNS,
-    ROBUSTNESS_COLUMNS,
     SUCCESS_COLUMNS,
     ablation_table,
     best_training_rows,
@@ -18,6 +17,7 @@ from pih.aggregate import (
     level_columns,
     paired_table,
     redeployment_summaries,
+    robustness_columns,
     robustness_pairs,
     robustness_table,
     run_tables,
@@ -39,7 +39,7 @@ with logged(snakemake.log[0]):
         [summaries, redeployment_summaries(snakemake.input.redeployments, keys)],
         ignore_index=True,
     )
-    robustness = robustness_table(deployments)
+    robustness = robustness_table(deployments, keys)
     paired = pd.concat(
         [paired_table(summaries, keys), robustness_pairs(deployments, keys)], ignore_index=True
     )
@@ -50,7 +50,7 @@ with logged(snakemake.log[0]):
     write_table(bands, snakemake.output.bands, record, BAND_COLUMNS)
     write_table(success, snakemake.output.success, record, SUCCESS_COLUMNS)
     write_table(paired, snakemake.output.paired, record, PAIRED_COLUMNS)
-    write_table(robustness, snakemake.output.robustness, record, ROBUSTNESS_COLUMNS)
+    write_table(robustness, snakemake.output.robustness, record, robustness_columns(keys))
     robust_pairs = paired[paired["dimension"] == "start_std_m"]
     write_text(
         snakemake.output.robustness_markdown,
