@@ -142,3 +142,66 @@ def test_redeploy_deploys_the_policies_again_from_offset_starts(tmp_path, capsys
     write_run(tmp_path, run, {**provenance, "seed_key": "another point"})
     assert main(["redeploy", str(tmp_path), "--start-std-m", "0"]) == 1
     assert "not the run's seeds" in capsys.readouterr().err
+
+
+def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, planning_run):
+    from pih.planner import ROLLOUT_COLUMNS
+
+    run, provenance = planning_run
+    point = {"planner.method": "one_level", "planner.seed": 0, "planner.start_x_m": -0.035}
+
+    def study_run(study, *, inserted=None, seed_key="", **planner):
+        config = copy.deepcopy(provenance["config"])
+        config["planner"] |= planner
+        method = config["planner"]["method"]
+        directory = tmp_path / study / "results" / "planning" / f"{method}_seed~0"
+        rollouts = run.rollouts.copy()
+        if inserted is not None:
+            rollouts.loc[rollouts["phase"] == "deploy", "success"] = inserted
+        sweep_point = {**point, "planner.method": method}
+        extra = {"seed_key": seed_key, "result": provenance["result"]}
+        record_ = record("plan", point=sweep_point, config=config, extra=extra)
+        write_table(rollouts, directory / "rollouts.parquet", record_, ROLLOUT_COLUMNS)
+        return directory
+
+    one_level = study_run("a", inserted=False, method="one_level")
+    study_run("a", inserted=True, method="bilevel")
+    study_run("b", inserted=False, method="one_level")  # the same training again: counts once
+    study_run("c", inserted=True, method="one_level", deploy_start_std_m=0.001)  # its twin
+    redeployed = tmp_path / "redeployed.parquet"
+    assert (
+        main(["redeploy", str(one_level), "--start-std-m", "0.0005", "--output", str(redeployed)])
+        == 0
+    )
+    capsys.readouterr()
+    out = tmp_path / "pooled"
+    studies = [str(tmp_path / s / "results") for s in "abc"]
+    assert main(["aggregate", *studies, str(redeployed), "--output-dir", str(out)]) == 0
+    assert "2 trainings" in capsys.readouterr().out
+    success = pd.read_parquet(out / "success.parquet").query("dimension == 'all'")
+    assert success.set_index("method")["runs"].to_dict() == {
+        "bilevel/explored_argmin": 1,
+        "one_level": 1,
+    }
+    robustness = pd.read_parquet(out / "robustness.parquet").query("method == 'one_level'")
+    rates = robustness.set_index("start_std_m")["deploy_success_rate"]
+    again = pd.read_parquet(redeployed).query("phase == 'deploy'")["success"].mean()
+    assert rates.to_dict() == {0.0: 0.0, 0.0005: again, 0.001: 1.0}
+    paired = pd.read_parquet(out / "paired.parquet").query("dimension == 'all'")
+    assert paired[["pairs", "better", "worse"]].values.tolist() == [[1, 1, 0]]
+    sources = pd.read_parquet(out / "sources.parquet")
+    assert sorted(sources["role"]) == ["copy", "deployment", "redeployment", "summary", "summary"]
+
+    # Runs that differ outside their sweep levels, or in training at the same levels, or
+    # whose deployments share no start std, do not pool: one line naming the cause.
+    study_run("d", method="one_level", iterations=3)
+    assert main(["aggregate", studies[0], str(tmp_path / "d"), "--output-dir", str(out)]) == 1
+    assert "planner.iterations: 2 in" in capsys.readouterr().err
+    study_run("e", method="one_level", seed_key="another point")
+    assert main(["aggregate", studies[0], str(tmp_path / "e"), "--output-dir", str(out)]) == 1
+    assert "the same method and sweep levels but different trainings" in capsys.readouterr().err
+    study_run("f", method="bilevel", deploy_start_std_m=0.001, seed_key="x")
+    assert main(["aggregate", studies[1], str(tmp_path / "f"), "--output-dir", str(out)]) == 1
+    assert "share none" in capsys.readouterr().err
+    assert main(["aggregate", str(tmp_path / "missing"), "--output-dir", str(out)]) == 1
+    assert "no such file" in capsys.readouterr().err

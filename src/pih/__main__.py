@@ -10,6 +10,10 @@
   would have deployed with ``planner.deploy_start_std_m = S`` (same sensed holes and targets,
   starts from its deployment stream), and print the success rates with a 95 % Wilson interval
   over the runs; ``--output F`` writes the rollouts as Parquet with provenance;
+- ``pih aggregate PATH... --output-dir DIR``: pool the planning runs and redeployments under
+  the PATHs (several studies' results directories, run directories, redeployment files) into
+  the success, paired, robustness and cost-band tables, each training counted once; runs must
+  differ only in their sweep levels (docs/planner.md, "Pooling studies");
 - ``pih schema``: the JSON schema of the study's config;
 - ``pih job TARGET [--configfile F ...]``: run the workflow script that makes ``TARGET`` in this
   process, outside Snakemake, for debugging (``python -m pdb -m pih job TARGET``).
@@ -50,6 +54,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     redeploy.add_argument("--output", type=Path, help="Parquet file of the redeployed rollouts")
     redeploy.add_argument("--workers", type=int, default=1, help="rollout processes per run")
+    pooled = commands.add_parser(
+        "aggregate", help="pool planning runs of several studies into the summary tables"
+    )
+    pooled.add_argument("paths", nargs="+", type=Path, help="results dirs, run dirs or files")
+    pooled.add_argument("--output-dir", type=Path, required=True, help="where the tables go")
     job = commands.add_parser("job", help="run the workflow script that makes TARGET, here")
     job.add_argument(
         "target", help="an output path, e.g. results/validation/point/offset_m~0.001.parquet"
@@ -66,6 +75,8 @@ def main(argv: list[str] | None = None) -> int:
         return _replay(args.run, args.query)
     if args.command == "redeploy":
         return _redeploy(args.runs, args.start_std_m, args.output, args.workers)
+    if args.command == "aggregate":
+        return _aggregate(args.paths, args.output_dir)
     if args.command == "schema":
         from pih.study_config import config_schema
 
@@ -233,6 +244,55 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
         columns = {**ROLLOUT_COLUMNS, "run": ("", "the planning run's directory name")}
         write_table(pd.concat(tables, ignore_index=True), output, provenance, columns)
         print(output)
+    return 0
+
+
+def _aggregate(paths: list[Path], output_dir: Path) -> int:
+    import pandas as pd
+
+    from pih.aggregate import (
+        BAND_COLUMNS,
+        BEST_COST_COLUMNS,
+        PAIRED_COLUMNS,
+        SUCCESS_COLUMNS,
+        level_columns,
+        planning_tables,
+        robustness_columns,
+    )
+    from pih.config import ConfigError
+    from pih.outputs import markdown_table, write_table, write_text
+    from pih.pooling import SOURCE_COLUMNS, find_outputs, pool
+    from pih.provenance import record as provenance_record
+
+    try:
+        pooled = pool(*find_outputs(paths))
+    except ConfigError as error:
+        print(f"pih aggregate: {_first_line(error)}", file=sys.stderr)
+        return 1
+    keys = pooled.sweep_keys
+    tables = planning_tables(pooled.runs, pooled.summaries, pooled.deployments, keys)
+    provenance = provenance_record(
+        "aggregate", config={"sweep_keys": keys}, inputs=sorted(set(pooled.sources["file"]))
+    )
+    outputs = {
+        "runs": (pooled.runs, {**BEST_COST_COLUMNS, **level_columns(keys)}),
+        "cost_bands": (tables.bands, BAND_COLUMNS),
+        "success": (tables.success, SUCCESS_COLUMNS),
+        "paired": (tables.paired, PAIRED_COLUMNS),
+        "robustness": (tables.robustness, robustness_columns(keys)),
+        "sources": (pooled.sources, SOURCE_COLUMNS),
+    }
+    for name, (frame, columns) in outputs.items():
+        write_table(frame, output_dir / f"{name}.parquet", provenance, columns)
+    for name in ("success", "paired", "robustness"):
+        write_text(output_dir / f"{name}.md", markdown_table(outputs[name][0]), provenance)
+    overall = tables.success[tables.success["dimension"] == "all"]
+    with pd.option_context("display.width", 200, "display.max_columns", 12):
+        print(f"{len(pooled.summaries)} trainings, sweep keys {keys}")
+        print(overall[["method", "runs", "deploy_success_rate", "deploy_ci_low", "deploy_ci_high"]])
+        print(tables.paired[tables.paired["dimension"].isin(["all", "start_std_m"])])
+        print(tables.robustness)
+    print(output_dir)
     return 0
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -168,17 +169,20 @@ SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
 
 
 def run_tables(
-    rollout_files: Iterable[str | Path], sweep_keys: list[str]
+    rollout_files: Iterable[str | Path],
+    sweep_keys: list[str],
+    levels: Mapping[Path, Mapping[str, Any]] | None = None,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """From planning-run records: the best cost per iteration of every run (long table) and one
-    summary row per run, each tagged with its method (:func:`variant`) and sweep levels."""
+    summary row per run, each tagged with its method (:func:`variant`) and sweep levels (its
+    sweep point's, or ``levels[path]``)."""
     bests, summaries = [], []
     for path in map(Path, rollout_files):
         record = read_provenance(path)
         planner = record["config"]["planner"]
         rollouts = pd.read_parquet(path)
         tags = {"method": variant(planner), "run": path.parent.name}
-        point = record["sweep_point"]
+        point = record["sweep_point"] if levels is None else levels[path]
         tags.update({key: str(point[key]) for key in split_keys(sweep_keys)})
         bests.append(best_training_rows(rollouts)[["iteration", "cost"]].assign(**tags))
         step = record["config"]["scene"]["solver"]["time_step_s"]
@@ -418,3 +422,33 @@ def success_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFram
         return pd.DataFrame(rows)
 
     return _by_dimension(summaries, sweep_keys, table)[list(SUCCESS_COLUMNS)]
+
+
+@dataclass
+class PlanningTables:
+    """The tables over a study's planning runs (docs/planner.md)."""
+
+    bands: pd.DataFrame
+    success: pd.DataFrame
+    ablation: pd.DataFrame
+    paired: pd.DataFrame
+    robustness: pd.DataFrame
+
+
+def planning_tables(
+    runs: pd.DataFrame, summaries: pd.DataFrame, deployments: pd.DataFrame, sweep_keys: list[str]
+) -> PlanningTables:
+    """Cost bands, success, ablation, paired (per start std too) and robustness tables from
+    :func:`run_tables`' outputs and every deployment at every start std (the runs' own and
+    :func:`redeployment_summaries`')."""
+    success = success_table(summaries, sweep_keys)
+    return PlanningTables(
+        bands=cost_bands(runs, sweep_keys),
+        success=success,
+        ablation=ablation_table(success),
+        paired=pd.concat(
+            [paired_table(summaries, sweep_keys), robustness_pairs(deployments, sweep_keys)],
+            ignore_index=True,
+        ),
+        robustness=robustness_table(deployments, sweep_keys),
+    )

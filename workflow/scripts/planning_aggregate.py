@@ -11,18 +11,13 @@ from pih.aggregate import (
     BEST_COST_COLUMNS,
     PAIRED_COLUMNS,
     SUCCESS_COLUMNS,
-    ablation_table,
     best_training_rows,
-    cost_bands,
     level_columns,
-    paired_table,
+    planning_tables,
     redeployment_summaries,
     robustness_columns,
-    robustness_pairs,
-    robustness_table,
     run_tables,
     run_title,
-    success_table,
 )
 from pih.config import from_mapping
 from pih.outputs import markdown_table, read_provenance, write_table, write_text
@@ -32,17 +27,13 @@ from pih.workflow import job_provenance, logged
 with logged(snakemake.log[0]):
     keys = list(snakemake.params.sweep)
     runs, summaries = run_tables(snakemake.input.rollouts, keys)
-    bands = cost_bands(runs, keys)
-    success = success_table(summaries, keys)
-    ablation = ablation_table(success)
     deployments = pd.concat(
         [summaries, redeployment_summaries(snakemake.input.redeployments, keys)],
         ignore_index=True,
     )
-    robustness = robustness_table(deployments, keys)
-    paired = pd.concat(
-        [paired_table(summaries, keys), robustness_pairs(deployments, keys)], ignore_index=True
-    )
+    tables = planning_tables(runs, summaries, deployments, keys)
+    bands, success, ablation = tables.bands, tables.success, tables.ablation
+    paired, robustness = tables.paired, tables.robustness
     record = job_provenance(
         snakemake, "planning_aggregate", config={"sweep": snakemake.params.sweep}
     )
