@@ -205,3 +205,6 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
     assert "share none" in capsys.readouterr().err
     assert main(["aggregate", str(tmp_path / "missing"), "--output-dir", str(out)]) == 1
     assert "no such file" in capsys.readouterr().err
+    (one_level / "rollouts.parquet").unlink()  # the redeployed run is gone
+    assert main(["aggregate", studies[1], str(redeployed), "--output-dir", str(out)]) == 1
+    assert "the run it redeploys" in capsys.readouterr().err

@@ -152,7 +152,11 @@ def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
             sources.append(_source(twin.path, name[training], twin.start_std_m, "deployment"))
     for path in redeploy_files:
         for source, std, rate in _redeployments(path):
-            run = by_path.get(source.resolve()) or RunRecord.read(source)
+            run = by_path.get(source.resolve())
+            if run is None:  # a run outside the given paths: pooled if it is a copy or twin
+                if not source.is_file():
+                    raise ConfigError(f"{path}: the run it redeploys, {source}, is not there")
+                run = RunRecord.read(source)
             training = run.training
             if training not in headline:
                 raise ConfigError(f"{path}: redeploys {source}, which is not among the pooled runs")
@@ -245,7 +249,7 @@ def _redeployments(path: Path) -> list[tuple[Path, float, float]]:
     redeployment file: the ``redeploy`` rule's (one run, beside it) or ``pih redeploy
     --output``'s (several, a ``run`` column naming their directories)."""
     record = read_provenance(path)
-    rollouts = pd.read_parquet(path, columns=None)
+    rollouts = pd.read_parquet(path)
     if "run" not in rollouts:
         std = record["config"]["planner"][DEPLOY_STD_KEY.split(".")[1]]
         return [(path.with_name("rollouts.parquet"), std, _deploy_rate(rollouts))]
