@@ -91,6 +91,8 @@ def test_plot_draws_one_planning_run(tmp_path, capsys, planning_run):
     write_run(tmp_path, run, provenance)
     assert main(["plot", str(tmp_path)]) == 0
     assert (tmp_path / "run.png").stat().st_size > 10_000
+    assert main(["plot", str(tmp_path), "--output", str(tmp_path / "other.png")]) == 0
+    assert (tmp_path / "other.png").stat().st_size > 10_000
     assert main(["plot", str(tmp_path / "missing")]) == 1
     assert "not a planning run directory" in capsys.readouterr().err
 
@@ -98,6 +100,10 @@ def test_plot_draws_one_planning_run(tmp_path, capsys, planning_run):
     assert main(["replay", str(tmp_path), "phase == 'deploy' and rollout == 0"]) == 0
     out = capsys.readouterr().out
     assert "= the record" in out and (tmp_path / "replay_deploy_2_0.rrd").stat().st_size > 1000
+    elsewhere = tmp_path / "elsewhere" / "deploy.rrd"
+    elsewhere.parent.mkdir()
+    assert main(["replay", str(tmp_path), "phase == 'deploy'", "--output", str(elsewhere)]) == 0
+    assert "= the record" in capsys.readouterr().out and elsewhere.stat().st_size > 1000
     # A run recorded before a key existed (here: without planner.train_start_std_m) replays.
     older = copy.deepcopy(provenance["config"])
     del older["planner"]["train_start_std_m"]

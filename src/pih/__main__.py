@@ -2,10 +2,12 @@
 
 - ``pih show FILE``: a Parquet output's columns with units, row count and provenance summary;
 - ``pih provenance FILE... [--key K]``: the full provenance record (Parquet or recording);
-- ``pih plot RUN_DIR``: one planning run's cost curve and best paths, as ``RUN_DIR/run.png``;
-- ``pih replay RUN_DIR QUERY``: simulate again the first rollout of the run matching a pandas
+- ``pih plot RUN_DIR [--output F]``: one planning run's cost curve and best paths, as
+  ``RUN_DIR/run.png`` or ``F``;
+- ``pih replay RUN_DIR QUERY [--output F]``: simulate again the first rollout of the run matching a pandas
   query (e.g. ``"phase == 'deploy' and rollout == 3"``), check it ends where the record says,
-  and write it as a Rerun recording ``RUN_DIR/replay_<phase>_<iteration>_<rollout>.rrd``;
+  and write it as a Rerun recording ``RUN_DIR/replay_<phase>_<iteration>_<rollout>.rrd`` (or
+  ``F``);
 - ``pih redeploy RUN_DIR... --start-std-m S``: deploy each run's learned policy again, as it
   would have deployed with ``planner.deploy_start_std_m = S`` (same sensed holes and targets,
   starts from its deployment stream), and print the success rates with a 95 % Wilson interval
@@ -40,10 +42,16 @@ def main(argv: list[str] | None = None) -> int:
     look.add_argument("file", type=Path)
     plot = commands.add_parser("plot", help="cost curve and best paths of one planning run")
     plot.add_argument("run", type=Path, help="a results/planning/<sweep point>/ directory")
+    plot.add_argument("--output", type=Path, help="the PNG to write (default RUN_DIR/run.png)")
     replay = commands.add_parser("replay", help="simulate one recorded rollout again, to Rerun")
     replay.add_argument("run", type=Path, help="a results/planning/<sweep point>/ directory")
     replay.add_argument(
         "query", help="pandas query on rollouts.parquet, e.g. \"phase == 'deploy'\""
+    )
+    replay.add_argument(
+        "--output",
+        type=Path,
+        help="the .rrd to write (default RUN_DIR/replay_<phase>_<it>_<n>.rrd)",
     )
     redeploy = commands.add_parser(
         "redeploy", help="deploy runs' learned policies again from offset starts"
@@ -70,9 +78,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "show":
         return _show(args.file)
     if args.command == "plot":
-        return _plot(args.run)
+        return _plot(args.run, args.output)
     if args.command == "replay":
-        return _replay(args.run, args.query)
+        return _replay(args.run, args.query, args.output)
     if args.command == "redeploy":
         return _redeploy(args.runs, args.start_std_m, args.output, args.workers)
     if args.command == "aggregate":
@@ -133,7 +141,7 @@ def _show(path: Path) -> int:
     return 0
 
 
-def _plot(run: Path) -> int:
+def _plot(run: Path, output: Path | None) -> int:
     import pandas as pd
 
     from pih import plots
@@ -146,14 +154,14 @@ def _plot(run: Path) -> int:
         first = _first_line(error)
         print(f"{run}: not a planning run directory ({first})", file=sys.stderr)
         return 1
-    target = run / "run.png"
+    target = output or run / "run.png"
     figure = plots.run_figure(recorded.rollouts, paths, recorded.scene.hole, run.name)
     plots.save(figure, target, provenance=recorded.record)
     print(target)
     return 0
 
 
-def _replay(run: Path, query: str) -> int:
+def _replay(run: Path, query: str, output: Path | None) -> int:
     import numpy as np
 
     from pih.planner import Planner, RecordedRun, recorded_pose, recorded_rollout
@@ -182,9 +190,10 @@ def _replay(run: Path, query: str) -> int:
     provenance = provenance_record(
         "replay", config=config, inputs=[run / "rollouts.parquet"], extra={"query": query}
     )
-    record_insertion(run / f"{name}.rrd", trace, scene, name, provenance)
+    target = output or run / f"{name}.rrd"
+    record_insertion(target, trace, scene, name, provenance)
     print(
-        f"{run / name}.rrd: {row['phase']} iteration {row['iteration']} rollout {row['rollout']}, "
+        f"{target}: {row['phase']} iteration {row['iteration']} rollout {row['rollout']}, "
         f"{trace.status}; P2 at the end ({', '.join(f'{v:.6g}' for v in trace.q_peg_bottom[-1])})"
         f" {'= the record' if same else 'DIFFERS from the record'}"
     )
