@@ -132,9 +132,9 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
     jobs = planned_jobs(snakemake(work, "-n", config=own))
     assert jobs["plan"] == 2  # not 2 x the default's starts and seeds
     ablations = planned_jobs(snakemake(work, "-n", "--configfile", "config/ablations.yaml"))
-    # 3 starts x 2 seeds x (8 bilevel variants + 6 one-level: the variants that differ from
-    # another only in the outer level (ours, sensed_tilt) are skipped)
-    assert ablations["plan"] == 3 * 2 * (8 + 6)
+    # 3 starts x 2 seeds x (9 bilevel variants + 6 one-level: the variants that differ from
+    # another only in the outer level (ours, sensed_tilt, ours_high_start) are skipped)
+    assert ablations["plan"] == 3 * 2 * (9 + 6)
     more_seeds = planned_jobs(snakemake(work, "-n", "--configfile", "config/more_seeds.yaml"))
     assert more_seeds["plan"] == 4 * 3 * 2
     more_starts = planned_jobs(snakemake(work, "-n", "--configfile", "config/more_starts.yaml"))
