@@ -198,19 +198,42 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
     sources = pd.read_parquet(out / "sources.parquet")
     assert sorted(sources["role"]) == ["copy", "deployment", "redeployment", "summary", "summary"]
 
-    # Runs that differ outside their sweep levels, or in training at the same levels, or
-    # whose deployments share no start std, do not pool: one line naming the cause.
+    # A one-level run ignores the outer level: recorded under another rule it is a copy.
+    study_run("g", inserted=False, method="one_level", outer={"rule": "deepest_explored"})
+    assert main(["aggregate", *studies[:2], str(tmp_path / "g"), "--output-dir", str(out)]) == 0
+    assert "2 trainings" in capsys.readouterr().out
+    copies = pd.read_parquet(out / "sources.parquet").query("role == 'copy'")
+    assert len(copies) == 2
+
+    # What does not pool stops with one line naming the cause: runs that differ outside their
+    # sweep levels; a copy that trained differently; two trainings at the same levels; a pair
+    # that does not share its draws; no std every training was recorded at; a file that is not
+    # a redeployment; a redeployment whose run is gone.
+    def refused(*paths):
+        assert main(["aggregate", *map(str, paths), "--output-dir", str(out)]) == 1
+        return capsys.readouterr().err
+
     study_run("d", method="one_level", iterations=3)
-    assert main(["aggregate", studies[0], str(tmp_path / "d"), "--output-dir", str(out)]) == 1
-    assert "planner.iterations: 2 in" in capsys.readouterr().err
+    assert "planner.iterations: 2 in" in refused(studies[0], tmp_path / "d")
+    retrained = study_run("h", method="one_level")
+    rows = pd.read_parquet(retrained / "rollouts.parquet")
+    rows.loc[rows["phase"] == "train", "cost"] *= 1 + 1e-12
+    write_table(
+        rows,
+        retrained / "rollouts.parquet",
+        read_provenance(one_level / "rollouts.parquet"),
+        ROLLOUT_COLUMNS,
+    )
+    assert "different training rollouts" in refused(studies[0], retrained)
     study_run("e", method="one_level", seed_key="another point")
-    assert main(["aggregate", studies[0], str(tmp_path / "e"), "--output-dir", str(out)]) == 1
-    assert "the same method and sweep levels but different trainings" in capsys.readouterr().err
-    study_run("f", method="bilevel", deploy_start_std_m=0.001, seed_key="x")
-    assert main(["aggregate", studies[1], str(tmp_path / "f"), "--output-dir", str(out)]) == 1
-    assert "share none" in capsys.readouterr().err
-    assert main(["aggregate", str(tmp_path / "missing"), "--output-dir", str(out)]) == 1
-    assert "no such file" in capsys.readouterr().err
+    assert "the same method and sweep levels but different trainings" in refused(
+        studies[0], tmp_path / "e"
+    )
+    study_run("f", method="bilevel", seed_key="another point")
+    assert "different random draws" in refused(studies[1], tmp_path / "f")
+    study_run("i", method="bilevel", deploy_start_std_m=0.001, seed_key="x")
+    assert "no start std at which every pooled training" in refused(studies[1], tmp_path / "i")
+    assert "not a redeploy output" in refused(studies[0], out / "success.parquet")
+    assert "no such file" in refused(tmp_path / "missing")
     (one_level / "rollouts.parquet").unlink()  # the redeployed run is gone
-    assert main(["aggregate", studies[1], str(redeployed), "--output-dir", str(out)]) == 1
-    assert "the run it redeploys" in capsys.readouterr().err
+    assert "neither among the pooled runs nor there" in refused(studies[2], redeployed)

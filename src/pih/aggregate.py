@@ -15,7 +15,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from pih.config import recorded_config, to_mapping
 from pih.outputs import read_provenance
+from pih.planner import PlannerConfig
+from pih.scene_config import SceneConfig
 from pih.study_config import METHOD_KEY, OUTER_PREFIX, is_method_key, plain
 
 
@@ -171,27 +174,34 @@ SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
 def run_tables(
     rollout_files: Iterable[str | Path],
     sweep_keys: list[str],
-    levels: Mapping[Path, Mapping[str, Any]] | None = None,
+    tags: Mapping[Path, Mapping[str, Any]] | None = None,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """From planning-run records: the best cost per iteration of every run (long table) and one
-    summary row per run, each tagged with its method (:func:`variant`) and sweep levels (its
-    sweep point's, or ``levels[path]``)."""
+    summary row per run, each tagged with its method (:func:`variant`), run (its directory's
+    name) and sweep levels (its sweep point's), or with ``tags[path]``'s run and levels."""
     bests, summaries = [], []
     for path in map(Path, rollout_files):
         record = read_provenance(path)
-        planner = record["config"]["planner"]
+        planner = recorded_config(PlannerConfig, record["config"], "planner")
+        scene = recorded_config(SceneConfig, record["config"], "scene")
         rollouts = pd.read_parquet(path)
-        tags = {"method": variant(planner), "run": path.parent.name}
-        point = record["sweep_point"] if levels is None else levels[path]
-        tags.update({key: str(point[key]) for key in split_keys(sweep_keys)})
-        bests.append(best_training_rows(rollouts)[["iteration", "cost"]].assign(**tags))
-        step = record["config"]["scene"]["solver"]["time_step_s"]
+        if tags is None:
+            point = record["sweep_point"]
+            own = {"run": path.parent.name, **{k: point[k] for k in split_keys(sweep_keys)}}
+        else:
+            own = tags[path]
+        run_tags = {"method": variant(to_mapping(planner)), **own}
+        run_tags |= {key: str(run_tags[key]) for key in split_keys(sweep_keys)}
+        bests.append(best_training_rows(rollouts)[["iteration", "cost"]].assign(**run_tags))
         summaries.append(
             {
-                **tags,
-                "start_std_m": planner.get("deploy_start_std_m", 0.0),
+                **run_tags,
+                "start_std_m": planner.deploy_start_std_m,
                 **run_summary(
-                    rollouts, planner["success_tolerance_m"], step, planner["deploy_policy"]
+                    rollouts,
+                    planner.success_tolerance_m,
+                    scene.solver.time_step_s,
+                    planner.deploy_policy,
                 ),
             }
         )

@@ -2,34 +2,50 @@
 (``pih aggregate``): each distinct training counted once, with its deployments at every start
 std gathered from its own records, its twins' (the same training recorded at another
 ``planner.deploy_start_std_m``) and its redeployments. Runs pool only when nothing but their sweep
-levels tells them apart. docs/planner.md, "Pooling studies".
+levels tells them apart, and pair only when they share their random draws. docs/planner.md,
+"Pooling studies".
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from pih.aggregate import run_tables, split_keys, variant
 from pih.config import ConfigError, recorded_config, to_mapping
 from pih.outputs import read_provenance
-from pih.planner import PlannerConfig, replace
-from pih.provenance import canonical_json
+from pih.planner import OuterConfig, PlannerConfig, replace
+from pih.provenance import canonical_json, input_sha256
 from pih.scene_config import SceneConfig
-from pih.study_config import VARIANT_KEY
+from pih.study_config import METHOD_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key
 
 DEPLOY_STD_KEY = "planner.deploy_start_std_m"
 REDEPLOY_PATTERN = "redeploy_start_std_m~*.parquet"
+LABEL_KEYS = (METHOD_KEY, OUTER_PREFIX + "rule")
+"""Keys the method label (:func:`pih.aggregate.variant`) shows, so runs may differ in them."""
+
+
+def _provenance(path: Path, step: str) -> dict[str, Any]:
+    try:
+        record = read_provenance(path)
+    except Exception as error:  # any unreadable file: say which
+        raise ConfigError(f"{path}: not a pih output with provenance ({error})") from error
+    if record.get("step") != step:
+        raise ConfigError(f"{path}: not a {step} output (its step is {record.get('step')!r})")
+    return record
 
 
 @dataclass(frozen=True)
 class RunRecord:
     """One ``rollouts.parquet``: its method, its settings as one flat mapping (keys the run
-    predates read as their defaults) and the training it shares with its twins."""
+    predates read as their defaults; a one-level run's outer level, which it ignores, as the
+    defaults) and the training it shares with its copies and twins."""
 
     path: Path
     record: dict[str, Any]
@@ -40,41 +56,44 @@ class RunRecord:
 
     @classmethod
     def read(cls, path: Path) -> RunRecord:
-        record = read_provenance(path)
-        if record.get("step") != "plan":
-            raise ConfigError(f"{path}: not a planning run (step {record.get('step')!r})")
+        record = _provenance(path, "plan")
         config = record["config"]
         scene = recorded_config(SceneConfig, config, "scene")
         planner = recorded_config(PlannerConfig, config, "planner")
+        if planner.method == "one_level":
+            planner = replace(planner, outer=OuterConfig())
         settings = _flat({"scene": to_mapping(scene), "planner": to_mapping(planner)})
-        undeployed = replace(planner, deploy_start_std_m=0.0)
+        undeployed = to_mapping(replace(planner, deploy_start_std_m=0.0))
         training = canonical_json(
-            {
-                "scene": to_mapping(scene),
-                "planner": to_mapping(undeployed),
-                "seed": record["seed_key"],
-            }
+            {"scene": to_mapping(scene), "planner": undeployed, "seed_key": record["seed_key"]}
         )
-        return cls(
-            path,
-            record,
-            variant(to_mapping(planner)),
-            settings,
-            planner.deploy_start_std_m,
-            training,
-        )
+        method = variant(to_mapping(planner))
+        return cls(path, record, method, settings, planner.deploy_start_std_m, training)
+
+    @property
+    def seed_key(self) -> str:
+        return self.record["seed_key"]
+
+    @cached_property
+    def sha256(self) -> str:
+        return input_sha256(self.path)
 
     def level(self, key: str) -> Any:
-        """The run's level of a sweep key: its sweep point's, else its config's value."""
-        point = self.record["sweep_point"]
-        if key in point:
-            return point[key]
+        """The run's level of a sweep key: its config's value, or its sweep point's (for keys
+        that are not config paths, such as ``variant``)."""
         if key in self.settings:
             return self.settings[key]
+        if key in self.record["sweep_point"]:
+            return self.record["sweep_point"][key]
         raise ConfigError(
             f"{self.path}: no level for sweep key {key!r} (neither in its sweep point nor in its "
             "config); pool runs of studies that share their sweep dimensions"
         )
+
+    def training_rows(self) -> pd.DataFrame:
+        columns = ["phase", "cost", "final_bottom_x_m", "final_bottom_y_m"]
+        rollouts = pd.read_parquet(self.path, columns=columns)
+        return rollouts[rollouts["phase"] == "train"].reset_index(drop=True)
 
 
 def _flat(mapping: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -88,8 +107,9 @@ def _flat(mapping: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def find_outputs(paths: Iterable[str | Path]) -> tuple[list[Path], list[Path]]:
-    """The planning runs (``rollouts.parquet``) and redeployments (the ``redeploy`` rule's files,
-    or ``pih redeploy --output`` files) under each path, a directory or a file."""
+    """The planning runs (``rollouts.parquet``) and the ``redeploy`` rule's files under each
+    directory; a file given itself is a run (``rollouts.parquet``) or a redeployment file (the
+    rule's, or ``pih redeploy --output``'s)."""
     runs, redeployments = [], []
     for path in map(Path, paths):
         if path.is_dir():
@@ -110,7 +130,7 @@ def find_outputs(paths: Iterable[str | Path]) -> tuple[list[Path], list[Path]]:
 class PooledRuns:
     """What :func:`pool` gathers: the sweep keys, one best-cost table and one summary row per
     training (deployed at the headline start std), every deployment at every std, and where
-    each training's rows came from."""
+    each training's rows came from. A training's ``run`` is its headline record's directory."""
 
     sweep_keys: list[str]
     runs: pd.DataFrame
@@ -120,88 +140,94 @@ class PooledRuns:
 
 
 def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
-    """Pool planning runs: the same training recorded twice (another deployment std, another
-    directory) counts once; a training's summary row is its record at the smallest std, which
-    must be the same std for all; runs may differ only in their sweep levels. Redeployments
-    attach to the training of the run they redeployed."""
+    """Pool planning runs. Records of one training (same settings but the deployment std, same
+    seed key) must agree in every training rollout and count once; each training's headline
+    record is at the smallest std at which every training has a record; runs may differ only in
+    their sweep levels; runs at the same levels but the method's must share their draws (and
+    only those). Redeployments attach to the run they redeployed, found by its data's hash."""
     records = [RunRecord.read(path) for path in run_files]
-    keys = _sweep_keys(records)
+    swept = dict.fromkeys(k for run in records for k in run.record["sweep_point"])
+    keys = [k for k in swept if k != DEPLOY_STD_KEY]
     trainings: dict[str, list[RunRecord]] = {}
     for run in records:
         trainings.setdefault(run.training, []).append(run)
-    headline = {t: min(runs, key=lambda r: r.start_std_m) for t, runs in trainings.items()}
-    _check_headline_std(list(headline.values()))
-    _check_settings(list(headline.values()), keys)
-    _check_distinct_levels(list(headline.values()), keys)
+    for group in trainings.values():
+        _check_same_training(group)
+    std = _headline_std(trainings)
+    headline = {t: next(r for r in group if r.start_std_m == std) for t, group in trainings.items()}
+    chosen = list(headline.values())
+    _check_settings(chosen, keys)
+    _check_distinct_levels(chosen, keys)
+    _check_draws(chosen, keys)
 
-    by_path = {run.path.resolve(): run for run in records}
-    name = {t: run.path.parent.name for t, run in headline.items()}
-    levels = {run.path: {k: run.level(k) for k in split_keys(keys)} for run in headline.values()}
-    runs, summaries = run_tables(list(levels), keys, levels)
+    name = {t: str(run.path.parent) for t, run in headline.items()}
+    tags = {
+        run.path: {"run": name[t], **{k: run.level(k) for k in split_keys(keys)}}
+        for t, run in headline.items()
+    }
+    runs, summaries = run_tables(list(tags), keys, tags)
     deployments, sources = [summaries], []
-    for training, run in headline.items():
-        sources.append(_source(run.path, name[training], run.start_std_m, "summary"))
-        for twin in trainings[training]:
-            if twin is run:
-                continue
-            if twin.start_std_m == run.start_std_m:
-                sources.append(_source(twin.path, name[training], twin.start_std_m, "copy"))
-                continue
-            rate = _deploy_rate(pd.read_parquet(twin.path, columns=["phase", "success"]))
-            deployments.append(_deployment(run, keys, name[training], twin.start_std_m, rate))
-            sources.append(_source(twin.path, name[training], twin.start_std_m, "deployment"))
+    for training, group in trainings.items():
+        lead = headline[training]
+        for run in group:
+            role = "summary" if run is lead else "copy" if run.start_std_m == std else "deployment"
+            sources.append(_source(run.path, name[training], run.start_std_m, role))
+            if role == "deployment":
+                rate = _deploy_rate(pd.read_parquet(run.path, columns=["phase", "success"]))
+                deployments.append(_deployment(lead, keys, name[training], run.start_std_m, rate))
+    by_hash = {run.sha256: run for run in records}
     for path in redeploy_files:
-        for source, std, rate in _redeployments(path):
-            run = by_path.get(source.resolve())
-            if run is None:  # a run outside the given paths: pooled if it is a copy or twin
-                if not source.is_file():
-                    raise ConfigError(f"{path}: the run it redeploys, {source}, is not there")
-                run = RunRecord.read(source)
-            training = run.training
-            if training not in headline:
-                raise ConfigError(f"{path}: redeploys {source}, which is not among the pooled runs")
-            deployments.append(_deployment(headline[training], keys, name[training], std, rate))
-            sources.append(_source(path, name[training], std, "redeployment"))
+        for source, redeployed_std, rate in _redeployments(path):
+            run = by_hash.get(source[1]) or _outside_run(path, *source)
+            if run.training not in headline:
+                raise ConfigError(f"{path}: redeploys {run.path}, not one of the pooled trainings")
+            lead = headline[run.training]
+            deployments.append(_deployment(lead, keys, name[run.training], redeployed_std, rate))
+            sources.append(_source(path, name[run.training], redeployed_std, "redeployment"))
     deployments = pd.concat(deployments, ignore_index=True)
-    # The same training at the same std more than once (copies, or a redeployment at its own
-    # std) counts once; deployment is deterministic given the training and the std.
+    # A training at the same std more than once (a redeployment at a recorded std) counts once:
+    # deployment is deterministic given the training and the std.
     deployments = deployments.drop_duplicates(["run", "start_std_m"], ignore_index=True)
     return PooledRuns(keys, runs, summaries, deployments, pd.DataFrame(sources))
 
 
-def _sweep_keys(records: list[RunRecord]) -> list[str]:
-    keys: list[str] = []
-    for run in records:
-        keys += [k for k in run.record["sweep_point"] if k not in keys and k != DEPLOY_STD_KEY]
-    return keys
-
-
-def _check_headline_std(runs: list[RunRecord]) -> None:
-    stds = {run.start_std_m: run for run in runs}
-    if len(stds) > 1:
-        examples = ", ".join(f"{std:g} m ({run.path})" for std, run in sorted(stds.items()))
-        raise ConfigError(
-            f"{DEPLOY_STD_KEY}: the pooled trainings are deployed at different start stds and "
-            f"share none ({examples}); redeploy them at a common std first (pih redeploy)"
+def _check_same_training(group: list[RunRecord]) -> None:
+    """Copies and twins must have trained alike (they would not if the code changed between
+    their studies)."""
+    first = group[0].training_rows()
+    for run in group[1:]:
+        rows = run.training_rows()
+        same = first.shape == rows.shape and all(
+            np.array_equal(first[c].to_numpy(), rows[c].to_numpy(), equal_nan=True)
+            for c in first.columns
+            if c != "phase"
         )
-
-
-def _check_distinct_levels(runs: list[RunRecord], keys: list[str]) -> None:
-    seen: dict[str, RunRecord] = {}
-    for run in runs:
-        levels = canonical_json([run.method, *[run.level(k) for k in keys]])
-        if levels in seen:
+        if not same:
+            codes = f"code {group[0].record['code_version']} and {run.record['code_version']}"
             raise ConfigError(
-                f"{seen[levels].path} and {run.path}: the same method and sweep levels but "
-                "different trainings (their configs or seeds differ); pool one of them"
+                f"{group[0].path} and {run.path}: the same config and seeds but different "
+                f"training rollouts ({codes}); pool one of them"
             )
-        seen[levels] = run
+
+
+def _headline_std(trainings: Mapping[str, list[RunRecord]]) -> float:
+    stds = [{run.start_std_m for run in group} for group in trainings.values()]
+    common = set.intersection(*stds)
+    if not common:
+        examples = {f"{sorted(s)} m: {g[0].path}" for s, g in zip(stds, trainings.values())}
+        raise ConfigError(
+            f"{DEPLOY_STD_KEY}: no start std at which every pooled training has a run record "
+            f"(e.g. {'; '.join(sorted(examples)[:2])}); pool runs recorded at one std "
+            "(deployments at others can come from redeployment files)"
+        )
+    return min(common)
 
 
 def _check_settings(runs: list[RunRecord], keys: list[str]) -> None:
-    """Runs pool only where their settings differ in sweep keys (or, for a variant sweep, within
-    each variant only in sweep keys): otherwise a table would mix study designs."""
-    allowed = {*keys, DEPLOY_STD_KEY}
+    """Runs pool only where their settings differ in sweep keys or the method label (for a
+    variant sweep: within each variant; a variant's name stands for its settings): otherwise
+    one table would mix study designs."""
+    allowed = {*keys, DEPLOY_STD_KEY, *LABEL_KEYS}
     groups: dict[Any, list[RunRecord]] = {}
     for run in runs:
         group = run.level(VARIANT_KEY) if VARIANT_KEY in keys else None
@@ -221,6 +247,50 @@ def _check_settings(runs: list[RunRecord], keys: list[str]) -> None:
                     f"{run.settings.get(key)!r} in {run.path}, and it is not a sweep dimension "
                     "of theirs; pool runs of one study design"
                 )
+
+
+def _levels(run: RunRecord, keys: list[str]) -> list[Any]:
+    """The run's levels of the split keys; a one-level run has no outer level."""
+    return [
+        None if run.method == "one_level" and k.startswith(OUTER_PREFIX) else run.level(k)
+        for k in split_keys(keys)
+    ]
+
+
+def _check_distinct_levels(runs: list[RunRecord], keys: list[str]) -> None:
+    seen: dict[str, RunRecord] = {}
+    for run in runs:
+        levels = canonical_json([run.method, *_levels(run, keys)])
+        if levels in seen:
+            raise ConfigError(
+                f"{seen[levels].path} and {run.path}: the same method and sweep levels but "
+                "different trainings (their configs or seeds differ); pool one of them"
+            )
+        seen[levels] = run
+
+
+def _check_draws(runs: list[RunRecord], keys: list[str]) -> None:
+    """Runs at the same levels but the method's are paired, so they must share their random
+    draws (seed key); runs at other levels are independent, so they must not."""
+    situation = [k for k in keys if not is_method_key(k)]
+    at_levels: dict[str, RunRecord] = {}
+    with_seeds: dict[str, RunRecord] = {}
+    for run in runs:
+        levels = canonical_json([run.level(k) for k in situation])
+        first = at_levels.setdefault(levels, run)
+        if first.seed_key != run.seed_key:
+            raise ConfigError(
+                f"{first.path} and {run.path}: the same sweep levels but different random draws "
+                f"(seed keys {first.seed_key} and {run.seed_key}), so they are not a pair; pool "
+                "runs whose studies sweep the same situation keys (start, seed, scene)"
+            )
+        first = with_seeds.setdefault(run.seed_key, run)
+        if canonical_json([first.level(k) for k in situation]) != levels:
+            raise ConfigError(
+                f"{first.path} and {run.path}: the same random draws (seed key {run.seed_key}) "
+                "at different sweep levels, so they are not independent; pool runs whose "
+                "studies sweep the same situation keys (start, seed, scene)"
+            )
 
 
 def _deploy_rate(rollouts: pd.DataFrame) -> float:
@@ -244,18 +314,42 @@ def _source(path: Path, run: str, std: float, role: str) -> dict[str, Any]:
     return {"file": str(path), "run": run, "start_std_m": std, "role": role}
 
 
-def _redeployments(path: Path) -> list[tuple[Path, float, float]]:
-    """(redeployed run's rollouts.parquet, start std, deployment success) per run in a
-    redeployment file: the ``redeploy`` rule's (one run, beside it) or ``pih redeploy
+def _redeployments(path: Path) -> list[tuple[tuple[str, str], float, float]]:
+    """((redeployed run's recorded path, its data's sha256), start std, deployment success) per
+    run in a redeployment file: the ``redeploy`` rule's (one run) or ``pih redeploy
     --output``'s (several, a ``run`` column naming their directories)."""
-    record = read_provenance(path)
+    record = _provenance(path, "redeploy")
     rollouts = pd.read_parquet(path)
+    inputs = list(record["inputs"].items())
     if "run" not in rollouts:
-        std = record["config"]["planner"][DEPLOY_STD_KEY.split(".")[1]]
-        return [(path.with_name("rollouts.parquet"), std, _deploy_rate(rollouts))]
+        std = record["config"]["planner"]["deploy_start_std_m"]
+        sources = [item for item in inputs if Path(item[0]).name == "rollouts.parquet"]
+        if len(sources) != 1:
+            raise ConfigError(f"{path}: expected one redeployed run among its inputs {inputs}")
+        return [(sources[0], std, _deploy_rate(rollouts))]
     std = record["config"]["deploy_start_std_m"]
-    inputs = {Path(p).parent.name: Path(p) for p in record["inputs"]}
-    return [(inputs[run], std, _deploy_rate(part)) for run, part in rollouts.groupby("run")]
+    found = []
+    for run, part in rollouts.groupby("run"):
+        sources = [item for item in inputs if Path(item[0]).parent.name == run]
+        if len(sources) != 1:
+            raise ConfigError(f"{path}: rows of run {run!r} match {len(sources)} of its inputs")
+        found.append((sources[0], std, _deploy_rate(part)))
+    return found
+
+
+def _outside_run(redeployment: Path, source: str, sha256: str) -> RunRecord:
+    """The redeployed run when it is not among the given paths: at its recorded path, if that
+    still holds the data it redeployed (a copy or twin of a pooled training)."""
+    path = Path(source)
+    if not path.is_file():
+        raise ConfigError(
+            f"{redeployment}: the run it redeploys, {source}, is neither among the pooled runs "
+            "nor there"
+        )
+    run = RunRecord.read(path)
+    if run.sha256 != sha256:
+        raise ConfigError(f"{redeployment}: {source} has changed since it was redeployed")
+    return run
 
 
 SOURCE_COLUMNS: dict[str, tuple[str, str]] = {
