@@ -135,6 +135,36 @@ def test_paired_table_compares_methods_at_the_points_both_ran():
         paired_table(pd.concat([summaries, summaries.iloc[:1]]), keys)
 
 
+def test_variant_pairs_compare_each_variant_with_the_reference_per_method():
+    from pih.aggregate import variant_pairs
+
+    keys = ["planner.method", "variant", "planner.seed"]
+    summaries = pd.DataFrame(
+        {
+            "method": ["bilevel/explored_argmin", "one_level"] * 2
+            + ["bilevel/deepest_explored"] * 2
+            + ["bilevel/explored_argmin", "one_level"] * 2,
+            "variant": ["paper"] * 4 + ["ours"] * 2 + ["per_run"] * 4,
+            "planner.seed": ["0", "0", "1", "1", "0", "1", "0", "0", "1", "1"],
+            "deploy_success_rate": [0.2, 0.1, 0.5, 0.0, 1.0, 1.0, 0.2, 0.3, 0.1, 0.0],
+        }
+    )
+    table = variant_pairs(summaries, keys, reference="paper").set_index(["level", "method"])
+    # ours has no one-level runs (they would be paper's): one row; per_run: one per method.
+    assert sorted(table.index) == [
+        ("ours", "bilevel/deepest_explored"),
+        ("per_run", "bilevel/explored_argmin"),
+        ("per_run", "one_level"),
+    ]
+    ours = table.loc[("ours", "bilevel/deepest_explored")]
+    assert ours["versus"] == "bilevel/explored_argmin at variant paper"
+    assert (ours["pairs"], ours["better"], ours["worse"]) == (2, 2, 0)
+    assert ours["mean_difference"] == pytest.approx((0.8 + 0.5) / 2)
+    one_level = table.loc[("per_run", "one_level")]
+    assert (one_level["better"], one_level["worse"], one_level["tied"]) == (1, 0, 1)
+    assert variant_pairs(summaries, ["planner.method", "planner.seed"], "paper").empty
+
+
 def test_robustness_table_per_method_and_start_std_counts_each_run_once():
     deployments = pd.DataFrame(
         {

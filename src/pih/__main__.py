@@ -67,6 +67,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     pooled.add_argument("paths", nargs="+", type=Path, help="results dirs, run dirs or files")
     pooled.add_argument("--output-dir", type=Path, required=True, help="where the tables go")
+    pooled.add_argument(
+        "--reference-variant", help="compare each variant of an ablation against this one"
+    )
     job = commands.add_parser("job", help="run the workflow script that makes TARGET, here")
     job.add_argument(
         "target", help="an output path, e.g. results/validation/point/offset_m~0.001.parquet"
@@ -84,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "redeploy":
         return _redeploy(args.runs, args.start_std_m, args.output, args.workers)
     if args.command == "aggregate":
-        return _aggregate(args.paths, args.output_dir)
+        return _aggregate(args.paths, args.output_dir, args.reference_variant)
     if args.command == "schema":
         from pih.study_config import config_schema
 
@@ -256,7 +259,7 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
     return 0
 
 
-def _aggregate(paths: list[Path], output_dir: Path) -> int:
+def _aggregate(paths: list[Path], output_dir: Path, reference_variant: str | None) -> int:
     import pandas as pd
 
     from pih.aggregate import (
@@ -279,7 +282,9 @@ def _aggregate(paths: list[Path], output_dir: Path) -> int:
         print(f"pih aggregate: {_first_line(error)}", file=sys.stderr)
         return 1
     keys = pooled.sweep_keys
-    tables = planning_tables(pooled.runs, pooled.summaries, pooled.deployments, keys)
+    tables = planning_tables(
+        pooled.runs, pooled.summaries, pooled.deployments, keys, reference_variant
+    )
     provenance = provenance_record(
         "aggregate", config={"sweep_keys": keys}, inputs=sorted(set(pooled.sources["file"]))
     )
@@ -299,7 +304,7 @@ def _aggregate(paths: list[Path], output_dir: Path) -> int:
     with pd.option_context("display.width", 200, "display.max_columns", 12):
         print(f"{len(pooled.summaries)} trainings, sweep keys {keys}")
         print(overall[["method", "runs", "deploy_success_rate", "deploy_ci_low", "deploy_ci_high"]])
-        print(tables.paired[tables.paired["dimension"].isin(["all", "start_std_m"])])
+        print(tables.paired[tables.paired["dimension"].isin(["all", "start_std_m", "variant"])])
         print(tables.robustness)
     print(output_dir)
     return 0

@@ -19,7 +19,7 @@ from pih.config import recorded_config, to_mapping
 from pih.outputs import read_provenance
 from pih.planner import PlannerConfig
 from pih.scene_config import SceneConfig
-from pih.study_config import METHOD_KEY, OUTER_PREFIX, is_method_key, plain
+from pih.study_config import METHOD_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key, plain
 
 
 def wilson_interval(successes: float, trials: int, z: float = 1.96) -> tuple[float, float]:
@@ -441,24 +441,77 @@ class PlanningTables:
     bands: pd.DataFrame
     success: pd.DataFrame
     ablation: pd.DataFrame
+    variant_pairs: pd.DataFrame
     paired: pd.DataFrame
     robustness: pd.DataFrame
 
 
+def variant_pairs(summaries: pd.DataFrame, sweep_keys: list[str], reference: str) -> pd.DataFrame:
+    """Each variant of an ablation against the reference variant (the sweep's first, e.g. the
+    paper-literal one), per planning method (one-level, bilevel), at the points both ran: the
+    same levels but the variant's, so the same draws. Rows as :func:`paired_table`'s, with
+    dimension ``variant``, the variant as level and ``versus`` naming the reference."""
+    columns = list(PAIRED_COLUMNS)
+    if VARIANT_KEY not in sweep_keys:
+        return pd.DataFrame(columns=columns)
+    others = [k for k in split_keys(sweep_keys) if k != VARIANT_KEY]
+    frame = summaries.assign(base=summaries["method"].str.split("/").str[0])
+    reference_runs = frame[frame[VARIANT_KEY] == reference].set_index(["base", *others])
+    rows = []
+    variants = frame[frame[VARIANT_KEY] != reference]
+    for (level, method), runs in variants.groupby([VARIANT_KEY, "method"], sort=True):
+        joined = runs.set_index(["base", *others]).join(
+            reference_runs[["method", "deploy_success_rate"]].add_suffix("_reference"),
+            how="inner",
+        )
+        if joined.empty:
+            continue
+        difference = joined["deploy_success_rate"] - joined["deploy_success_rate_reference"]
+        better, worse = int((difference > 0).sum()), int((difference < 0).sum())
+        versus = sorted(set(joined["method_reference"]))
+        rows.append(
+            {
+                "method": method,
+                "dimension": VARIANT_KEY,
+                "level": level,
+                "versus": f"{' / '.join(versus)} at {VARIANT_KEY} {reference}",
+                "pairs": len(difference),
+                "better": better,
+                "worse": worse,
+                "tied": len(difference) - better - worse,
+                "mean_difference": float(difference.mean()),
+                "sign_test_p": sign_test_p(better, worse),
+            }
+        )
+    return pd.DataFrame(rows, columns=columns)
+
+
 def planning_tables(
-    runs: pd.DataFrame, summaries: pd.DataFrame, deployments: pd.DataFrame, sweep_keys: list[str]
+    runs: pd.DataFrame,
+    summaries: pd.DataFrame,
+    deployments: pd.DataFrame,
+    sweep_keys: list[str],
+    reference_variant: str | None = None,
 ) -> PlanningTables:
-    """Cost bands, success, ablation, paired (per start std too) and robustness tables from
-    :func:`run_tables`' outputs and every deployment at every start std (the runs' own and
-    :func:`redeployment_summaries`')."""
+    """Cost bands, success, ablation, paired (per start std, and each variant against
+    ``reference_variant``, too) and robustness tables from :func:`run_tables`' outputs and
+    every deployment at every start std (the runs' own and :func:`redeployment_summaries`')."""
     success = success_table(summaries, sweep_keys)
+    against_reference = (
+        variant_pairs(summaries, sweep_keys, reference_variant)
+        if reference_variant is not None
+        else pd.DataFrame(columns=list(PAIRED_COLUMNS))
+    )
+    paired = [
+        paired_table(summaries, sweep_keys),
+        against_reference,
+        robustness_pairs(deployments, sweep_keys),
+    ]
     return PlanningTables(
         bands=cost_bands(runs, sweep_keys),
         success=success,
         ablation=ablation_table(success),
-        paired=pd.concat(
-            [paired_table(summaries, sweep_keys), robustness_pairs(deployments, sweep_keys)],
-            ignore_index=True,
-        ),
+        variant_pairs=against_reference,
+        paired=pd.concat([p for p in paired if not p.empty] or paired[:1], ignore_index=True),
         robustness=robustness_table(deployments, sweep_keys),
     )

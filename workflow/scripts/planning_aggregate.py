@@ -22,6 +22,7 @@ from pih.aggregate import (
 from pih.config import from_mapping
 from pih.outputs import markdown_table, read_provenance, write_table, write_text
 from pih.scene_config import SceneConfig
+from pih.study_config import VARIANT_KEY
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
@@ -31,7 +32,8 @@ with logged(snakemake.log[0]):
         [summaries, redeployment_summaries(snakemake.input.redeployments, keys)],
         ignore_index=True,
     )
-    tables = planning_tables(runs, summaries, deployments, keys)
+    reference_variant = snakemake.params.sweep.get(VARIANT_KEY, [None])[0]
+    tables = planning_tables(runs, summaries, deployments, keys, reference_variant)
     bands, success, ablation = tables.bands, tables.success, tables.ablation
     paired, robustness = tables.paired, tables.robustness
     record = job_provenance(
@@ -52,7 +54,13 @@ with logged(snakemake.log[0]):
     write_text(snakemake.output.success_markdown, markdown_table(success), record)
     write_text(snakemake.output.success_csv, success.to_csv(index=False))
     write_text(snakemake.output.paired_markdown, markdown_table(paired), record)
-    write_text(snakemake.output.ablation_markdown, markdown_table(ablation), record)
+    against_reference = tables.variant_pairs
+    write_text(
+        snakemake.output.ablation_markdown,
+        markdown_table(ablation)
+        + (f"\n\n{markdown_table(against_reference)}" if len(against_reference) else ""),
+        record,
+    )
     overall = bands[bands["dimension"] == "all"]
     plots.save(
         plots.cost_band_figure(overall),
