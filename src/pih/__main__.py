@@ -4,10 +4,10 @@
 - ``pih provenance FILE... [--key K]``: the full provenance record (Parquet or recording);
 - ``pih plot RUN_DIR [--output F]``: one planning run's cost curve and best paths, as
   ``RUN_DIR/run.png`` or ``F``;
-- ``pih replay RUN_DIR QUERY [--output F]``: simulate again the first rollout of the run matching a pandas
-  query (e.g. ``"phase == 'deploy' and rollout == 3"``), check it ends where the record says,
-  and write it as a Rerun recording ``RUN_DIR/replay_<phase>_<iteration>_<rollout>.rrd`` (or
-  ``F``);
+- ``pih replay RUN_DIR QUERY [--output F]``: simulate again the first rollout of the run
+  matching a pandas query (e.g. ``"phase == 'deploy' and rollout == 3"``), check it ends where
+  the record says, and write it as a Rerun recording
+  ``RUN_DIR/replay_<phase>_<iteration>_<rollout>.rrd`` (or ``F``);
 - ``pih redeploy RUN_DIR... --start-std-m S``: deploy each run's learned policy again, as it
   would have deployed with ``planner.deploy_start_std_m = S`` (same sensed holes and targets,
   starts from its deployment stream), and print the success rates with a 95 % Wilson interval
@@ -16,6 +16,7 @@
   the PATHs (several studies' results directories, run directories, redeployment files) into
   the success, paired, robustness and cost-band tables, each training counted once; runs must
   differ only in their sweep levels (docs/planner.md, "Pooling studies");
+  ``--reference-variant V`` also compares each variant of an ablation with ``V``;
 - ``pih schema``: the JSON schema of the study's config;
 - ``pih job TARGET [--configfile F ...]``: run the workflow script that makes ``TARGET`` in this
   process, outside Snakemake, for debugging (``python -m pdb -m pih job TARGET``).
