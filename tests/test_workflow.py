@@ -381,3 +381,20 @@ def test_a_workflow_script_runs_outside_snakemake_for_debugging(tmp_path):
     )
     assert missing.returncode == 1
     assert "no rule with a script makes this file" in missing.stderr
+
+
+def test_a_job_depends_on_the_library_modules_its_script_reaches():
+    """A library edit re-runs the jobs whose code it reaches: planning runs do not depend on the
+    aggregates, figures or summary, which the aggregate jobs do."""
+    from pih.provenance import imported_library_modules, script_library_hash
+
+    scripts = ROOT / "workflow" / "scripts"
+    plan = imported_library_modules(scripts / "plan.py")
+    assert {"planner", "scene", "dmp", "optimizers", "outputs"} <= set(plan)
+    assert not {"aggregate", "plots", "summary", "pooling"} & set(plan)
+    assert {"aggregate", "plots"} <= set(
+        imported_library_modules(scripts / "planning_aggregate.py")
+    )
+    assert "planner" not in imported_library_modules(scripts / "whitney_curve.py")
+    hashes = {script_library_hash(scripts / f"{name}.py") for name in ("plan", "whitney_curve")}
+    assert len(hashes) == 2

@@ -7,6 +7,7 @@ simulator settings and library versions. Volatile fields (time, host) are listed
 
 from __future__ import annotations
 
+import ast
 import functools
 import hashlib
 import importlib.metadata
@@ -65,6 +66,49 @@ def input_sha256(path: str | Path) -> str:
     with pa.ipc.new_stream(sink, table.schema) as writer:
         writer.write_table(table)
     return hashlib.sha256(sink.getvalue().to_pybytes()).hexdigest()
+
+
+def _pih_imports(source: str) -> set[str]:
+    """Names of the ``pih`` modules a source file imports (anywhere in it)."""
+    modules = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            modules |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            modules.add(node.module)
+            if node.module == "pih":
+                modules |= {f"pih.{alias.name}" for alias in node.names}
+    return {m.split(".")[1] for m in modules if m.startswith("pih.")}
+
+
+def imported_library_modules(script: str | Path) -> list[str]:
+    """The ``pih`` modules a script imports, directly or through other ``pih`` modules."""
+    seen: set[str] = set()
+    todo = _pih_imports(Path(script).read_text())
+    while todo:
+        name = todo.pop()
+        path = LIBRARY_ROOT / f"{name}.py"
+        if name in seen or not path.is_file():
+            continue
+        seen.add(name)
+        todo |= _pih_imports(path.read_text())
+    return sorted(seen)
+
+
+@functools.cache
+def script_library_hash(script: str | Path) -> str:
+    """sha256 over the ``pih`` modules a workflow script depends on
+    (:func:`imported_library_modules`, the package's ``__init__`` and data files): a job's
+    library, so that a library edit re-runs the jobs whose code it reaches and no others
+    (Snakemake tracks the script itself, not what it imports)."""
+    names = ["__init__", *imported_library_modules(script)]
+    files = [LIBRARY_ROOT / f"{name}.py" for name in names]
+    files += sorted(LIBRARY_ROOT.rglob("*.json"))
+    digest = hashlib.sha256()
+    for path in files:
+        digest.update(str(path.relative_to(LIBRARY_ROOT)).encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
 
 
 @functools.cache

@@ -1,7 +1,7 @@
 import pandas as pd
 from snakemake.utils import Paramspace, validate
 
-from pih.provenance import library_hash
+from pih.provenance import script_library_hash
 from pih.study_config import sweep_points
 from pih.study_config import (
     check_study,
@@ -43,8 +43,13 @@ def resolved_section(section):
 
 check_study(config, POINTS)
 
-# Library edits re-run the jobs whose code changed (Snakemake does not track imports).
-LIBRARY_HASH = library_hash()
+
+
+def library_of(script):
+    """The hash of the pih modules a workflow script imports, directly or not: a library edit
+    re-runs the jobs whose code it reaches (Snakemake tracks the script, not its imports)."""
+    return script_library_hash(os.path.join(workflow.basedir, "workflow", "scripts", script))
+
 
 # Each planning run is redeployed once per std (file names carry the std as Python prints it).
 ROBUSTNESS_STDS = [str(float(std)) for std in config["robustness"]["start_std_m"]]

@@ -17,7 +17,7 @@ rule plan:
         scene=resolved_section("scene"),
         planner=resolved_section("planner"),
         point=sweep_point,
-        library=LIBRARY_HASH,
+        library=library_of("plan.py"),
     script:
         "../scripts/plan.py"
 
@@ -37,7 +37,7 @@ rule redeploy:
         runtime=10,
     params:
         start_std_m=lambda wildcards: float(wildcards.std),
-        library=LIBRARY_HASH,
+        library=library_of("redeploy.py"),
     script:
         "../scripts/redeploy.py"
 
@@ -112,6 +112,6 @@ rule planning_aggregate:
         sweep=config["sweep"],
         scene=config["scene"],
         figure_points=FIGURE_POINTS,
-        library=LIBRARY_HASH,
+        library=library_of("planning_aggregate.py"),
     script:
         "../scripts/planning_aggregate.py"

@@ -30,7 +30,7 @@ rule summary:
             "validation: every variant (geometry, margin, solver, contact model)": "validation/variants.md",
             "provenance of every data file": "provenance.md",
         },
-        library=LIBRARY_HASH,
+        library=library_of("summary.py"),
     script:
         "../scripts/summary.py"
 
@@ -78,6 +78,6 @@ rule provenance_index:
                 rules.planning_aggregate.output, rules.planning_aggregate.output.runs
             ),
         },
-        library=LIBRARY_HASH,
+        library=library_of("provenance_index.py"),
     script:
         "../scripts/provenance_index.py"

@@ -11,7 +11,7 @@ rule whitney_curve:
         runtime=5,
     params:
         scene=config["scene"],
-        library=LIBRARY_HASH,
+        library=library_of("whitney_curve.py"),
     script:
         "../scripts/whitney_curve.py"
 
@@ -33,7 +33,7 @@ rule validation_run:
     params:
         scene=lambda wildcards: VALIDATION_SCENES[wildcards.variant],
         experiment=config["validation"]["experiment"],
-        library=LIBRARY_HASH,
+        library=library_of("validation_run.py"),
     script:
         "../scripts/validation_run.py"
 
@@ -98,7 +98,7 @@ rule validation_compare:
     params:
         scene=config["scene"],
         validation=config["validation"],
-        library=LIBRARY_HASH,
+        library=library_of("validation_compare.py"),
     script:
         "../scripts/validation_compare.py"
 
@@ -129,6 +129,6 @@ rule validation_variants:
     params:
         scene=config["scene"],
         validation=config["validation"],
-        library=LIBRARY_HASH,
+        library=library_of("validation_variants.py"),
     script:
         "../scripts/validation_variants.py"
