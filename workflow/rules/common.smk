@@ -44,11 +44,13 @@ def resolved_section(section):
 check_study(config, POINTS)
 
 
-
 def library_of(script):
     """The hash of the pih modules a workflow script imports, directly or not: a library edit
-    re-runs the jobs whose code it reaches (Snakemake tracks the script, not its imports)."""
-    return script_library_hash(os.path.join(workflow.basedir, "workflow", "scripts", script))
+    re-runs the jobs whose code it reaches (Snakemake tracks the script, not its imports).
+    """
+    return script_library_hash(
+        os.path.join(workflow.basedir, "workflow", "scripts", script)
+    )
 
 
 # Each planning run is redeployed once per std (file names carry the std as Python prints it).
