@@ -204,6 +204,18 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
     assert "2 trainings" in capsys.readouterr().out
     copies = pd.read_parquet(out / "sources.parquet").query("role == 'copy'")
     assert len(copies) == 2
+    # ... and bilevel runs' outer settings (not swept) do not keep it from pooling with them.
+    study_run("j", inserted=True, method="bilevel", outer={"entry_depth_m": 0.002})
+    assert (
+        main(["aggregate", studies[0], str(tmp_path / "j" / "results"), "--output-dir", str(out)])
+        == 1
+    )
+    assert "planner.outer.entry_depth_m" in capsys.readouterr().err  # two bilevel designs
+    assert (
+        main(["aggregate", studies[1], str(tmp_path / "j" / "results"), "--output-dir", str(out)])
+        == 0
+    )
+    assert "2 trainings" in capsys.readouterr().out
 
     # What does not pool stops with one line naming the cause: runs that differ outside their
     # sweep levels; a copy that trained differently; two trainings at the same levels; a pair

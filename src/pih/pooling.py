@@ -235,10 +235,14 @@ def _check_settings(runs: list[RunRecord], keys: list[str]) -> None:
     for group in groups.values():
         first = group[0]
         for run in group[1:]:
+            # A one-level run ignores the outer level, whatever the bilevel runs set there.
+            ignored = OUTER_PREFIX if "one_level" in (first.method, run.method) else None
             differing = sorted(
                 key
                 for key in first.settings.keys() | run.settings.keys()
-                if key not in allowed and first.settings.get(key) != run.settings.get(key)
+                if key not in allowed
+                and not (ignored and key.startswith(ignored))
+                and first.settings.get(key) != run.settings.get(key)
             )
             if differing:
                 key = differing[0]
