@@ -355,6 +355,19 @@ def sign_test_p(better: int, worse: int) -> float:
     return min(1.0, 2 * tail)
 
 
+def _pair_counts(difference: pd.Series) -> dict[str, Any]:
+    """Columns of a paired comparison from the per-pair differences in deployment success."""
+    better, worse = int((difference > 0).sum()), int((difference < 0).sum())
+    return {
+        "pairs": len(difference),
+        "better": better,
+        "worse": worse,
+        "tied": len(difference) - better - worse,
+        "mean_difference": float(difference.mean()),
+        "sign_test_p": sign_test_p(better, worse),
+    }
+
+
 def paired_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
     """Every two methods compared at the sweep points both ran (common random numbers make each
     point a pair), overall and per level of every compared dimension (not start or seed, where
@@ -369,19 +382,7 @@ def paired_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame
             difference = (wide[a] - wide[b]).dropna()
             if difference.empty:
                 continue
-            better, worse = int((difference > 0).sum()), int((difference < 0).sum())
-            rows.append(
-                {
-                    "method": a,
-                    "versus": b,
-                    "pairs": len(difference),
-                    "better": better,
-                    "worse": worse,
-                    "tied": len(difference) - better - worse,
-                    "mean_difference": float(difference.mean()),
-                    "sign_test_p": sign_test_p(better, worse),
-                }
-            )
+            rows.append({"method": a, "versus": b, **_pair_counts(difference)})
         return pd.DataFrame(
             rows, columns=[c for c in PAIRED_COLUMNS if c not in ("dimension", "level")]
         )
@@ -467,7 +468,6 @@ def variant_pairs(summaries: pd.DataFrame, sweep_keys: list[str], reference: str
         if joined.empty:
             continue
         difference = joined["deploy_success_rate"] - joined["deploy_success_rate_reference"]
-        better, worse = int((difference > 0).sum()), int((difference < 0).sum())
         versus = sorted(set(joined["method_reference"]))
         rows.append(
             {
@@ -475,12 +475,7 @@ def variant_pairs(summaries: pd.DataFrame, sweep_keys: list[str], reference: str
                 "dimension": VARIANT_KEY,
                 "level": level,
                 "versus": f"{' / '.join(versus)} at {VARIANT_KEY} {reference}",
-                "pairs": len(difference),
-                "better": better,
-                "worse": worse,
-                "tied": len(difference) - better - worse,
-                "mean_difference": float(difference.mean()),
-                "sign_test_p": sign_test_p(better, worse),
+                **_pair_counts(difference),
             }
         )
     return pd.DataFrame(rows, columns=columns)

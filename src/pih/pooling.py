@@ -175,7 +175,7 @@ def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
             if role == "deployment":
                 rate = _deploy_rate(pd.read_parquet(run.path, columns=["phase", "success"]))
                 deployments.append(_deployment(lead, keys, name[training], run.start_std_m, rate))
-    by_hash = {run.sha256: run for run in records}
+    by_hash = {run.sha256: run for run in records} if redeploy_files else {}
     for path in redeploy_files:
         for source, redeployed_std, rate in _redeployments(path):
             run = by_hash.get(source[1]) or _outside_run(path, *source)
