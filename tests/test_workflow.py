@@ -138,7 +138,7 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
     more_seeds = planned_jobs(snakemake(work, "-n", "--configfile", "config/more_seeds.yaml"))
     assert more_seeds["plan"] == 4 * 3 * 2
     more_starts = planned_jobs(snakemake(work, "-n", "--configfile", "config/more_starts.yaml"))
-    assert more_starts["plan"] == 7 * 2
+    assert more_starts["plan"] == 7 * 5
     start_error = planned_jobs(snakemake(work, "-n", "--configfile", "config/start_error.yaml"))
     assert start_error["plan"] == 4 * 3 * 2
 
