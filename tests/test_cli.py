@@ -197,6 +197,14 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
     assert paired[["pairs", "better", "worse"]].values.tolist() == [[1, 1, 0]]
     sources = pd.read_parquet(out / "sources.parquet")
     assert sorted(sources["role"]) == ["copy", "deployment", "redeployment", "summary", "summary"]
+    # The arguments' order does not decide which copy heads a training.
+    again = tmp_path / "pooled_again"
+    assert main(["aggregate", str(redeployed), *studies[::-1], "--output-dir", str(again)]) == 0
+    capsys.readouterr()
+    for table in ("runs", "success", "robustness", "sources"):
+        pd.testing.assert_frame_equal(
+            pd.read_parquet(out / f"{table}.parquet"), pd.read_parquet(again / f"{table}.parquet")
+        )
 
     # A one-level run ignores the outer level: recorded under another rule it is a copy.
     study_run("g", inserted=False, method="one_level", outer={"rule": "deepest_explored"})
@@ -218,9 +226,9 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
     assert "2 trainings" in capsys.readouterr().out
 
     # What does not pool stops with one line naming the cause: runs that differ outside their
-    # sweep levels; a copy that trained differently; two trainings at the same levels; a pair
-    # that does not share its draws; no std every training was recorded at; a file that is not
-    # a redeployment; a redeployment whose run is gone.
+    # sweep levels; a copy that trained or deployed differently; two trainings at the same
+    # levels; a pair that does not share its draws; no std every training was recorded at; a
+    # file that is not a redeployment; a redeployment whose run is gone.
     def refused(*paths):
         assert main(["aggregate", *map(str, paths), "--output-dir", str(out)]) == 1
         return capsys.readouterr().err
@@ -237,6 +245,8 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
         ROLLOUT_COLUMNS,
     )
     assert "different training rollouts" in refused(studies[0], retrained)
+    study_run("k", inserted=True, method="one_level")  # a's training, deployed otherwise
+    assert "different deployments" in refused(studies[0], tmp_path / "k")
     study_run("e", method="one_level", seed_key="another point")
     assert "the same method and sweep levels but different trainings" in refused(
         studies[0], tmp_path / "e"

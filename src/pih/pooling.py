@@ -14,7 +14,6 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
 from pih.aggregate import run_tables, split_keys, variant
@@ -90,10 +89,11 @@ class RunRecord:
             "config); pool runs of studies that share their sweep dimensions"
         )
 
-    def training_rows(self) -> pd.DataFrame:
-        columns = ["phase", "cost", "final_bottom_x_m", "final_bottom_y_m"]
+    def rows(self, phases: tuple[str, ...]) -> pd.DataFrame:
+        """The rollouts of these phases, as much of them as decides the pooled tables."""
+        columns = ["phase", "cost", "success", "final_bottom_x_m", "final_bottom_y_m"]
         rollouts = pd.read_parquet(self.path, columns=columns)
-        return rollouts[rollouts["phase"] == "train"].reset_index(drop=True)
+        return rollouts[rollouts["phase"].isin(phases)].reset_index(drop=True)
 
 
 def _flat(mapping: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -145,7 +145,8 @@ def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
     record is at the smallest std at which every training has a record; runs may differ only in
     their sweep levels; runs at the same levels but the method's must share their draws (and
     only those). Redeployments attach to the run they redeployed, found by its data's hash."""
-    records = [RunRecord.read(path) for path in run_files]
+    # In path order, so that which copy heads a training does not depend on the arguments' order.
+    records = sorted((RunRecord.read(path) for path in run_files), key=lambda run: str(run.path))
     swept = dict.fromkeys(k for run in records for k in run.record["sweep_point"])
     keys = [k for k in swept if k != DEPLOY_STD_KEY]
     trainings: dict[str, list[RunRecord]] = {}
@@ -192,22 +193,26 @@ def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
 
 
 def _check_same_training(group: list[RunRecord]) -> None:
-    """Copies and twins must have trained alike (they would not if the code changed between
-    their studies)."""
-    first = group[0].training_rows()
-    for run in group[1:]:
-        rows = run.training_rows()
-        same = first.shape == rows.shape and all(
-            np.array_equal(first[c].to_numpy(), rows[c].to_numpy(), equal_nan=True)
-            for c in first.columns
-            if c != "phase"
+    """Copies and twins must have trained alike, and copies (records at one std) deployed alike:
+    they would not if the code changed between their studies. Then it does not matter which
+    copy heads a training."""
+    first_at: dict[float, RunRecord] = {}
+    for run in group:
+        copied = first_at.setdefault(run.start_std_m, run)
+        if run is not group[0]:
+            _check_same_rows(group[0], run, ("train",), "training rollouts")
+        if run is not copied:
+            _check_same_rows(copied, run, ("deploy", "deploy_final_mean"), "deployments")
+
+
+def _check_same_rows(first: RunRecord, run: RunRecord, phases: tuple[str, ...], what: str) -> None:
+    expected, rows = first.rows(phases), run.rows(phases)
+    if not expected.equals(rows):  # NaN equals NaN here
+        codes = f"code {first.record['code_version']} and {run.record['code_version']}"
+        raise ConfigError(
+            f"{first.path} and {run.path}: the same config and seeds but different {what} "
+            f"({codes}); pool one of them"
         )
-        if not same:
-            codes = f"code {group[0].record['code_version']} and {run.record['code_version']}"
-            raise ConfigError(
-                f"{group[0].path} and {run.path}: the same config and seeds but different "
-                f"training rollouts ({codes}); pool one of them"
-            )
 
 
 def _headline_std(trainings: Mapping[str, list[RunRecord]]) -> float:
