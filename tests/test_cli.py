@@ -195,6 +195,8 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
     assert rates.to_dict() == {0.0: 0.0, 0.0005: again, 0.001: 1.0}
     paired = pd.read_parquet(out / "paired.parquet").query("dimension == 'all'")
     assert paired[["pairs", "better", "worse"]].values.tolist() == [[1, 1, 0]]
+    for figure in ("fig9_cost_bands.png", "fig9_cost_bands.pdf", "fig_deploy_success.png"):
+        assert (out / figure).stat().st_size > 1000
     sources = pd.read_parquet(out / "sources.parquet")
     assert sorted(sources["role"]) == ["copy", "deployment", "redeployment", "summary", "summary"]
     # The arguments' order does not decide which copy heads a training.

@@ -14,8 +14,9 @@
   over the runs; ``--output F`` writes the rollouts as Parquet with provenance;
 - ``pih aggregate PATH... --output-dir DIR``: pool the planning runs and redeployments under
   the PATHs (several studies' results directories, run directories, redeployment files) into
-  the success, paired, robustness and cost-band tables, each training counted once; runs must
-  differ only in their sweep levels (docs/planner.md, "Pooling studies");
+  the success, paired, robustness and cost-band tables and their figures, each training
+  counted once; runs must differ only in their sweep levels (docs/planner.md, "Pooling
+  studies");
   ``--reference-variant V`` also compares each variant of an ablation with ``V``;
 - ``pih schema``: the JSON schema of the study's config;
 - ``pih job TARGET [--configfile F ...]``: run the workflow script that makes ``TARGET`` in this
@@ -64,10 +65,13 @@ def main(argv: list[str] | None = None) -> int:
     redeploy.add_argument("--output", type=Path, help="Parquet file of the redeployed rollouts")
     redeploy.add_argument("--workers", type=int, default=1, help="rollout processes per run")
     pooled = commands.add_parser(
-        "aggregate", help="pool planning runs of several studies into the summary tables"
+        "aggregate",
+        help="pool planning runs of several studies into the summary tables and figures",
     )
     pooled.add_argument("paths", nargs="+", type=Path, help="results dirs, run dirs or files")
-    pooled.add_argument("--output-dir", type=Path, required=True, help="where the tables go")
+    pooled.add_argument(
+        "--output-dir", type=Path, required=True, help="where the tables and figures go"
+    )
     pooled.add_argument(
         "--reference-variant", help="compare each variant of an ablation against this one"
     )
@@ -263,6 +267,7 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
 def _aggregate(paths: list[Path], output_dir: Path, reference_variant: str | None) -> int:
     import pandas as pd
 
+    from pih import plots
     from pih.aggregate import (
         BAND_COLUMNS,
         BEST_COST_COLUMNS,
@@ -301,6 +306,24 @@ def _aggregate(paths: list[Path], output_dir: Path, reference_variant: str | Non
         write_table(frame, output_dir / f"{name}.parquet", provenance, columns)
     for name in ("success", "paired", "robustness"):
         write_text(output_dir / f"{name}.md", markdown_table(outputs[name][0]), provenance)
+    overall_bands = tables.bands[tables.bands["dimension"] == "all"]
+    plots.save(
+        plots.cost_band_figure(overall_bands),
+        output_dir / "fig9_cost_bands.png",
+        output_dir / "fig9_cost_bands.pdf",
+        provenance=provenance,
+    )
+    # Per start and per compared dimension; seeds only replicate, and a dimension with one level
+    # repeats "all".
+    success = tables.success
+    levels = success.groupby("dimension")["level"].nunique()
+    shown = [d for d, n in levels.items() if d == "all" or (n > 1 and d != "planner.seed")]
+    compared = success[success["dimension"].isin(shown)]
+    plots.save(
+        plots.deploy_success_figure(compared),
+        output_dir / "fig_deploy_success.png",
+        provenance=provenance,
+    )
     overall = tables.success[tables.success["dimension"] == "all"]
     with pd.option_context("display.width", 200, "display.max_columns", 12):
         print(f"{len(pooled.summaries)} trainings, sweep keys {keys}")

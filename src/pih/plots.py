@@ -236,14 +236,10 @@ def deploy_success_figure(table: pd.DataFrame) -> plt.Figure:
         "deployment success rate (fraction of trials that inserted; 95 % interval over runs)"
     )
     ax.grid(alpha=0.3, axis="x")
-    ax.legend(
-        fontsize=7,
-        loc="upper center",
-        bbox_to_anchor=(0.5, -0.12 - 0.5 / fig.get_figheight()),
-        ncol=2,
-    )
     ax.set_title("Would the learned policy insert if deployed? (beyond the paper)", fontsize=9)
-    fig.tight_layout()
+    fig.legend(*ax.get_legend_handles_labels(), fontsize=7, loc="lower center", ncol=2)
+    legend_in = 0.15 + 0.17 * len(methods)  # its rows (two entries per method, two columns)
+    fig.tight_layout(rect=(0, legend_in / fig.get_figheight(), 1, 1))
     return fig
 
 
