@@ -272,6 +272,7 @@ def _aggregate(paths: list[Path], output_dir: Path, reference_variant: str | Non
         BAND_COLUMNS,
         BEST_COST_COLUMNS,
         PAIRED_COLUMNS,
+        SEED_KEY,
         SUCCESS_COLUMNS,
         level_columns,
         planning_tables,
@@ -317,14 +318,14 @@ def _aggregate(paths: list[Path], output_dir: Path, reference_variant: str | Non
     # repeats "all".
     success = tables.success
     levels = success.groupby("dimension")["level"].nunique()
-    shown = [d for d, n in levels.items() if d == "all" or (n > 1 and d != "planner.seed")]
+    shown = [d for d, n in levels.items() if d == "all" or (n > 1 and d != SEED_KEY)]
     compared = success[success["dimension"].isin(shown)]
     plots.save(
         plots.deploy_success_figure(compared),
         output_dir / "fig_deploy_success.png",
         provenance=provenance,
     )
-    overall = tables.success[tables.success["dimension"] == "all"]
+    overall = success[success["dimension"] == "all"]
     with pd.option_context("display.width", 200, "display.max_columns", 12):
         print(f"{len(pooled.summaries)} trainings, sweep keys {keys}")
         print(overall[["method", "runs", "deploy_success_rate", "deploy_ci_low", "deploy_ci_high"]])

@@ -47,7 +47,8 @@ def final_success_fraction(rollouts: pd.DataFrame, last: int = 10) -> float:
     return float(best_training_rows(rollouts)["success"].tail(last).mean())
 
 
-REPLICATE_KEYS = ("planner.start_x_m", "planner.seed")
+SEED_KEY = "planner.seed"
+REPLICATE_KEYS = ("planner.start_x_m", SEED_KEY)
 """Sweep dimensions that replicate a comparison rather than define one (the ablation table
 pools over them)."""
 
