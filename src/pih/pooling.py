@@ -89,10 +89,15 @@ class RunRecord:
             "config); pool runs of studies that share their sweep dimensions"
         )
 
-    def rows(self, phases: tuple[str, ...]) -> pd.DataFrame:
-        """The rollouts of these phases, as much of them as decides the pooled tables."""
+    @cached_property
+    def _decisive_rows(self) -> pd.DataFrame:
         columns = ["phase", "cost", "success", "final_bottom_x_m", "final_bottom_y_m"]
-        rollouts = pd.read_parquet(self.path, columns=columns)
+        return pd.read_parquet(self.path, columns=columns)
+
+    def rows(self, phases: tuple[str, ...]) -> pd.DataFrame:
+        """The rollouts of these phases, as much of them as decides the pooled tables (read
+        once per file)."""
+        rollouts = self._decisive_rows
         return rollouts[rollouts["phase"].isin(phases)].reset_index(drop=True)
 
 
