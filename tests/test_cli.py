@@ -150,25 +150,38 @@ def test_redeploy_deploys_the_policies_again_from_offset_starts(tmp_path, capsys
     assert "not the run's seeds" in capsys.readouterr().err
 
 
-def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, planning_run):
+def write_study_run(
+    root, planning_run, study, *, inserted=None, seed_key="", variant=None, **planner
+):
+    """A planning run of study ``study`` under ``root``: the fixture's run with these planner
+    settings, its deployments all inserted or not; with a variant, its name and overrides."""
     from pih.planner import ROLLOUT_COLUMNS
 
     run, provenance = planning_run
-    point = {"planner.method": "one_level", "planner.seed": 0, "planner.start_x_m": -0.035}
+    config = copy.deepcopy(provenance["config"])
+    config["planner"] |= planner
+    method = config["planner"]["method"]
+    point = {"planner.method": method, "planner.seed": 0, "planner.start_x_m": -0.035}
+    extra = {"seed_key": seed_key, "result": provenance["result"]}
+    if variant is not None:
+        name, overrides = variant
+        point["variant"] = name
+        extra["variant_overrides"] = overrides
+    name = f"{method}_variant~{variant[0]}_seed~0" if variant else f"{method}_seed~0"
+    directory = root / study / "results" / "planning" / name
+    rollouts = run.rollouts.copy()
+    if inserted is not None:
+        rollouts.loc[rollouts["phase"] == "deploy", "success"] = inserted
+    record_ = record("plan", point=point, config=config, extra=extra)
+    write_table(rollouts, directory / "rollouts.parquet", record_, ROLLOUT_COLUMNS)
+    return directory
 
-    def study_run(study, *, inserted=None, seed_key="", **planner):
-        config = copy.deepcopy(provenance["config"])
-        config["planner"] |= planner
-        method = config["planner"]["method"]
-        directory = tmp_path / study / "results" / "planning" / f"{method}_seed~0"
-        rollouts = run.rollouts.copy()
-        if inserted is not None:
-            rollouts.loc[rollouts["phase"] == "deploy", "success"] = inserted
-        sweep_point = {**point, "planner.method": method}
-        extra = {"seed_key": seed_key, "result": provenance["result"]}
-        record_ = record("plan", point=sweep_point, config=config, extra=extra)
-        write_table(rollouts, directory / "rollouts.parquet", record_, ROLLOUT_COLUMNS)
-        return directory
+
+def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, planning_run):
+    from pih.planner import ROLLOUT_COLUMNS
+
+    def study_run(study, **settings):
+        return write_study_run(tmp_path, planning_run, study, **settings)
 
     one_level = study_run("a", inserted=False, method="one_level")
     study_run("a", inserted=True, method="bilevel")
@@ -261,3 +274,32 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
     assert "no such file" in refused(tmp_path / "missing")
     (one_level / "rollouts.parquet").unlink()  # the redeployed run is gone
     assert "neither among the pooled runs nor there" in refused(studies[2], redeployed)
+
+
+def test_aggregate_pools_ablation_variants_only_where_their_overrides_differ(
+    tmp_path, capsys, planning_run
+):
+    ours = ("ours", {"planner.outer.rule": "deepest_explored"})
+    rule = {"outer": {"rule": "deepest_explored"}}
+    for method in ("one_level", "bilevel"):
+        write_study_run(tmp_path, planning_run, "a", method=method, variant=("paper", {}))
+    write_study_run(tmp_path, planning_run, "b", method="bilevel", variant=ours, **rule)
+    out = tmp_path / "pooled"
+
+    def pooled(*studies):
+        paths = [str(tmp_path / s / "results") for s in studies]
+        return main(["aggregate", *paths, "--output-dir", str(out)])
+
+    assert pooled("a", "b") == 0
+    assert "3 trainings" in capsys.readouterr().out
+    # Another study's variant with another budget: not what its name says.
+    write_study_run(
+        tmp_path, planning_run, "c", method="bilevel", variant=ours, iterations=3, **rule
+    )
+    assert pooled("a", "c") == 1
+    assert "planner.iterations: 2 in" in capsys.readouterr().err
+    # A variant overriding the budget may differ in it.
+    fewer = ("fewer", {"planner.iterations": 3})
+    write_study_run(tmp_path, planning_run, "d", method="bilevel", variant=fewer, iterations=3)
+    assert pooled("a", "d") == 0
+    capsys.readouterr()

@@ -19,7 +19,7 @@ from pih.aggregate import (
 from pih.config import ConfigError, to_mapping
 from pih.planner import PlannerConfig
 from pih.scene_config import SceneConfig
-from pih.study_config import override, resolve, seed_key, sweep_points
+from pih.study_config import override, resolve, seed_key, sweep_points, variant_overrides
 
 
 def base_config() -> dict:
@@ -257,6 +257,9 @@ def test_variants_are_named_overrides_swept_like_a_dimension():
         sweep_points({"variant": ["nope"]}, variants)
     with pytest.raises(ConfigError, match="variant 'nope'"):
         resolve(config, {"variant": "nope"})
+    # What a run records its variant as standing for (pooling checks it).
+    assert variant_overrides(config, {"variant": "ours"}) == variants["ours"]
+    assert variant_overrides(config, {"planner.seed": 1}) == {}
 
 
 def test_validation_variants_apply_over_the_validation_scene_and_name_bad_keys():

@@ -8,6 +8,7 @@ levels tells them apart, and pair only when they share their random draws. docs/
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
@@ -234,33 +235,38 @@ def _headline_std(trainings: Mapping[str, list[RunRecord]]) -> float:
 
 
 def _check_settings(runs: list[RunRecord], keys: list[str]) -> None:
-    """Runs pool only where their settings differ in sweep keys or the method label (for a
-    variant sweep: within each variant; a variant's name stands for its settings): otherwise
-    one table would mix study designs."""
+    """Runs pool only where their settings differ in sweep keys or the method label, and runs
+    of two ablation variants also in the settings either variant overrides (as its runs record
+    them; a record without them is trusted to differ only as its variant's name says):
+    otherwise one table would mix study designs."""
     allowed = {*keys, DEPLOY_STD_KEY, *LABEL_KEYS}
-    groups: dict[Any, list[RunRecord]] = {}
+    heads: dict[Any, RunRecord] = {}
     for run in runs:
-        group = run.level(VARIANT_KEY) if VARIANT_KEY in keys else None
-        groups.setdefault(group, []).append(run)
-    for group in groups.values():
-        first = group[0]
-        for run in group[1:]:
-            # A one-level run ignores the outer level, whatever the bilevel runs set there.
-            ignored = OUTER_PREFIX if "one_level" in (first.method, run.method) else None
-            differing = sorted(
-                key
-                for key in first.settings.keys() | run.settings.keys()
-                if key not in allowed
-                and not (ignored and key.startswith(ignored))
-                and first.settings.get(key) != run.settings.get(key)
-            )
-            if differing:
-                key = differing[0]
-                raise ConfigError(
-                    f"{key}: {first.settings.get(key)!r} in {first.path} but "
-                    f"{run.settings.get(key)!r} in {run.path}, and it is not a sweep dimension "
-                    "of theirs; pool runs of one study design"
-                )
+        head = heads.setdefault(run.level(VARIANT_KEY) if VARIANT_KEY in keys else None, run)
+        _check_same_design(head, run, allowed)
+    for first, other in itertools.combinations(heads.values(), 2):
+        overrides = [run.record.get("variant_overrides") for run in (first, other)]
+        if None not in overrides:
+            _check_same_design(first, other, allowed | {k for o in overrides for k in o})
+
+
+def _check_same_design(first: RunRecord, run: RunRecord, allowed: set[str]) -> None:
+    # A one-level run ignores the outer level, whatever the bilevel runs set there.
+    ignored = OUTER_PREFIX if "one_level" in (first.method, run.method) else None
+    differing = sorted(
+        key
+        for key in first.settings.keys() | run.settings.keys()
+        if key not in allowed
+        and not (ignored and key.startswith(ignored))
+        and first.settings.get(key) != run.settings.get(key)
+    )
+    if differing:
+        key = differing[0]
+        raise ConfigError(
+            f"{key}: {first.settings.get(key)!r} in {first.path} but "
+            f"{run.settings.get(key)!r} in {run.path}, and it is neither a sweep dimension of "
+            "theirs nor a setting their variants override; pool runs of one study design"
+        )
 
 
 def _levels(run: RunRecord, keys: list[str]) -> list[Any]:

@@ -111,19 +111,26 @@ def plain(value: Any) -> Any:
     return value.item() if isinstance(value, np.generic) else value
 
 
+def variant_overrides(config: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, Any]:
+    """The dotted-path overrides a sweep point's ``variant`` level stands for (none without one).
+    Each planning run records them, so that pooling knows what a variant's name covers."""
+    if VARIANT_KEY not in point:
+        return {}
+    name = plain(point[VARIANT_KEY])
+    variants = config.get("variants") or {}
+    if name not in variants:
+        raise ConfigError(f"variant {name!r} is not defined under variants ({sorted(variants)})")
+    return dict(variants[name])
+
+
 def override(config: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, Any]:
     """Deep copy of ``config`` with each dotted path of ``point`` set to its value; a
     ``variant`` level applies that entry of ``config["variants"]`` first."""
     out = copy.deepcopy(dict(config))
     point = dict(point)
     if VARIANT_KEY in point:
-        name = plain(point.pop(VARIANT_KEY))
-        variants = config.get("variants") or {}
-        if name not in variants:
-            raise ConfigError(
-                f"variant {name!r} is not defined under variants ({sorted(variants)})"
-            )
-        point = {**variants[name], **point}
+        point = {**variant_overrides(config, point), **point}
+        del point[VARIANT_KEY]
     for path, value in point.items():
         node = out
         *parents, leaf = path.split(".")

@@ -5,7 +5,7 @@ from pih.outputs import write_table
 from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS, Planner, PlannerConfig
 from pih.recordings import record_planning
 from pih.scene_config import SceneConfig
-from pih.study_config import seed_key
+from pih.study_config import seed_key, variant_overrides
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
@@ -33,7 +33,11 @@ with logged(snakemake.log[0]):
         seeds={**record.seeds, "planner.seed": planner_config.seed},
         config={"scene": to_mapping(scene), "planner": to_mapping(planner_config)},
         simulator=scene.simulator_settings(),
-        extra={"seed_key": key, "result": summary},
+        extra={
+            "seed_key": key,
+            "variant_overrides": variant_overrides(snakemake.config, point),
+            "result": summary,
+        },
     )
     timing = {"seconds": record.seconds, "rollout_seconds": record.rollout_seconds}
     write_table(
