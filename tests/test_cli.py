@@ -133,8 +133,9 @@ def test_redeploy_deploys_the_policies_again_from_offset_starts(tmp_path, capsys
     pd.testing.assert_frame_equal(again.drop(columns="run"), deploy)
     assert (again["run"] == tmp_path.name).all()
     assert "1 runs: deployment success" in capsys.readouterr().out
-    # Offset starts: same holes and targets, other starts.
-    assert main(["redeploy", str(tmp_path), "--start-std-m", "0.001", "--output", str(output)]) == 0
+    # Offset starts: same holes and targets, other starts (the run named by its rollouts file).
+    rollouts = str(tmp_path / "rollouts.parquet")
+    assert main(["redeploy", rollouts, "--start-std-m", "0.001", "--output", str(output)]) == 0
     offset = pd.read_parquet(output)
     for column in ("sensed_hole_x_m", "target_x_m", "weights"):
         assert offset[column].equals(again[column])

@@ -8,9 +8,10 @@
   matching a pandas query (e.g. ``"phase == 'deploy' and rollout == 3"``), check it ends where
   the record says, and write it as a Rerun recording
   ``RUN_DIR/replay_<phase>_<iteration>_<rollout>.rrd`` (or ``F``);
-- ``pih redeploy RUN_DIR... --start-std-m S``: deploy each run's learned policy again, as it
-  would have deployed with ``planner.deploy_start_std_m = S`` (same sensed holes and targets,
-  starts from its deployment stream), and print the success rates with a 95 % Wilson interval
+- ``pih redeploy RUN... --start-std-m S``: deploy each run's learned policy again (a run is its
+  directory or its ``rollouts.parquet``), as it would have deployed with
+  ``planner.deploy_start_std_m = S`` (same sensed holes and targets, starts from its deployment
+  stream), and print the success rates with a 95 % Wilson interval
   over the runs; ``--output F`` writes the rollouts as Parquet with provenance;
 - ``pih aggregate PATH... --output-dir DIR``: pool the planning runs and redeployments under
   the PATHs (several studies' results directories, run directories, redeployment files) into
@@ -58,7 +59,12 @@ def main(argv: list[str] | None = None) -> int:
     redeploy = commands.add_parser(
         "redeploy", help="deploy runs' learned policies again from offset starts"
     )
-    redeploy.add_argument("runs", nargs="+", type=Path, help="results/planning/<point>/ dirs")
+    redeploy.add_argument(
+        "runs",
+        nargs="+",
+        type=Path,
+        help="results/planning/<point>/ dirs or their rollouts.parquet files",
+    )
     redeploy.add_argument(
         "--start-std-m", type=float, required=True, help="start offset std in x and y, m"
     )
@@ -217,6 +223,8 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
     from pih.planner import ROLLOUT_COLUMNS, RecordedRun
     from pih.provenance import record as provenance_record
 
+    # A run's rollouts.parquet names its run (results/planning/*/rollouts.parquet skips summary/).
+    runs = [run.parent if run.name == "rollouts.parquet" else run for run in runs]
     recorded = []
     for run in runs:  # every run is read and checked before any is simulated
         try:
