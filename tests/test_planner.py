@@ -181,6 +181,7 @@ def test_first_iteration_goal_is_the_sensed_hole_for_both_methods(tiny_runs):
         (lambda c: c.update(train_start_std_m=float("nan")), r"planner\.train_start_std_m"),
         (lambda c: c.update(train_start_std_m=0.002), r"planner\.train_start_std_m.*above"),
         (lambda c: c.update(start_height_m=0.5), r"planner\.start_height_m"),
+        (lambda c: c.update(convergence_window=1), r"planner\.convergence_window.*>= 2"),
         (
             lambda c: c["costs"].update(balance="first_iteration_median", spring_energy=0.0),
             r"planner\.costs\.spring_energy.*median",
@@ -326,7 +327,9 @@ def test_last_inserted_mean_deploys_the_latest_mean_that_inserted(
 
 def tiny_run_with(**changes) -> tuple[Planner, pd.DataFrame]:
     """The planner and rollouts of ``tiny_runs[0]``'s config with ``changes``."""
-    config = short_config(iterations=2, population_size=3, deploy_policy="final_mean", **changes)
+    config = short_config(
+        iterations=2, population_size=3, **{"deploy_policy": "final_mean", **changes}
+    )
     planner = Planner.from_configs(SceneConfig(), config)
     return planner, planner.run().rollouts
 
@@ -386,6 +389,10 @@ def test_training_start_offsets_draw_their_own_stream(tiny_runs):
     # ... and deployment starts where training was meant to (deploy_start_std_m = 0).
     deploy = rows[rows["phase"] == "deploy"]
     assert (deploy[["start_x_m", "start_y_m"]] == planner.start_bottom[:2]).all(axis=None)
+    # Which weights are deployed does not change where training rollouts start.
+    _, other_policy = tiny_run_with(train_start_std_m=0.001, deploy_policy="last_inserted_mean")
+    other = other_policy[other_policy["phase"] == "train"].reset_index(drop=True)
+    assert np.array_equal(other[["start_x_m", "start_y_m"]], train[["start_x_m", "start_y_m"]])
 
 
 def test_a_recorded_rollout_replays_exactly(tiny_runs):

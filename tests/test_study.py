@@ -88,6 +88,13 @@ def test_bands_and_success_table_per_method_and_dimension():
     assert overall.loc["a", "final_mean_deploy_success_rate"] == 0.5
     assert overall.loc["a", "final_mean_deploy_ci_high"] == pytest.approx(wilson_interval(1, 2)[1])
     assert math.isnan(overall.loc["b", "final_mean_deploy_ci_low"])
+    # A run without a final-mean deployment (NaN) is no observation of its interval.
+    pooled = success_table(summaries.assign(method="a"), ["planner.method", "planner.seed"])
+    pooled = pooled[pooled["dimension"] == "all"].iloc[0]
+    assert pooled["runs"] == 3 and pooled["final_mean_deploy_success_rate"] == 0.5
+    assert (pooled["final_mean_deploy_ci_low"], pooled["final_mean_deploy_ci_high"]) == (
+        pytest.approx(wilson_interval(1, 2))
+    )
     # One of two runs never reached success: the median is "never" (NaN), not the other run's.
     assert math.isnan(overall.loc["a", "median_first_success_iteration"])
     assert overall.loc["b", "median_goal_iteration"] == 10
@@ -213,6 +220,11 @@ def test_sweep_points_skip_repeated_one_level_runs_and_reject_bad_sweeps():
         }
     )
     assert len(policies) == 4
+    # A study whose config fixes the method to one-level makes one run per start, whatever the
+    # outer level it sweeps; bilevel makes one per rule.
+    rules = {"planner.start_x_m": [-0.04, -0.03], "planner.outer.rule": sweep["planner.outer.rule"]}
+    assert len(sweep_points(rules, method="one_level")) == 2
+    assert len(sweep_points(rules, method="bilevel")) == 4
     with pytest.raises(ConfigError, match=r"sweep\.planner\.seed: repeated level"):
         sweep_points({"planner.seed": [0, 0]})
     with pytest.raises(ConfigError, match="planner.seed.*planner.optimizer.seed"):

@@ -173,6 +173,7 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
         (lambda c: c["robustness"].update(start_std_m=[0.01]), "robustness.start_std_m"),
         (lambda c: c["robustness"].update(start_std_m=[0.001, 0.001]), "robustness.start_std_m"),
         (lambda c: c.pop("robustness"), "robustness"),
+        (lambda c: c["figure_point"].update({"planner.seed": 99}), "is not a sweep point"),
     ],
 )
 def test_bad_config_stops_before_any_job_naming_the_key(tmp_path, edit, message):

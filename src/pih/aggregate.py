@@ -37,6 +37,16 @@ def wilson_interval(successes: float, trials: int, z: float = 1.96) -> tuple[flo
     return (min(p, max(0.0, centre - half)), max(p, min(1.0, centre + half)))
 
 
+def rate_over_runs(rates: pd.Series) -> tuple[float, float, float]:
+    """Mean of the runs' success fractions and its 95 % Wilson interval, each run one observation;
+    a run without that deployment (NaN) is no observation."""
+    observed = rates.dropna()
+    if observed.empty:
+        return (math.nan, math.nan, math.nan)
+    rate = float(observed.mean())
+    return (rate, *wilson_interval(rate * len(observed), len(observed)))
+
+
 def best_training_rows(rollouts: pd.DataFrame) -> pd.DataFrame:
     """Each training iteration's lowest-cost rollout, in iteration order."""
     return rollouts[(rollouts["phase"] == "train") & rollouts["is_best"]].sort_values("iteration")
@@ -262,14 +272,13 @@ def robustness_table(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.Dat
     unique = deployments.drop_duplicates(["run", "start_std_m"])
     rows = []
     for (method, *levels, std), runs in unique.groupby(["method", *compared, "start_std_m"]):
-        n, rate = len(runs), float(runs["deploy_success_rate"].mean())
-        low, high = wilson_interval(rate * n, n)
+        rate, low, high = rate_over_runs(runs["deploy_success_rate"])
         rows.append(
             {
                 "method": method,
                 **dict(zip(compared, levels, strict=True)),
                 "start_std_m": std,
-                "runs": n,
+                "runs": len(runs),
                 "deploy_success_rate": rate,
                 "deploy_ci_low": low,
                 "deploy_ci_high": high,
@@ -404,8 +413,7 @@ def success_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFram
             n = len(runs)
             rates = {}
             for prefix in ("", "final_mean_"):
-                rate = float(runs[f"{prefix}deploy_success_rate"].mean())
-                low, high = wilson_interval(rate * n, n) if math.isfinite(rate) else (math.nan,) * 2
+                rate, low, high = rate_over_runs(runs[f"{prefix}deploy_success_rate"])
                 rates |= {
                     f"{prefix}deploy_success_rate": rate,
                     f"{prefix}deploy_ci_low": low,

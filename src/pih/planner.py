@@ -238,9 +238,9 @@ class PlannerConfig:
             self.deploy_policy,
         )
         require(
-            self.convergence_window >= 0,
+            self.convergence_window == 0 or self.convergence_window >= 2,
             prefix + "convergence_window",
-            "an integer >= 0 (0: no early stop)",
+            "0 (no early stop) or an integer >= 2 (one iteration's spread is always 0)",
             self.convergence_window,
         )
         require(
@@ -723,8 +723,10 @@ class Planner:
             samples = optimizer.ask()
             train_std = cfg.train_start_std_m
             batch = [(self.offset_start(start_rng, train_std), target, w, sensed) for w in samples]
+            # Drawn under every deploy policy, so that the next training starts do not depend on it.
+            mean_start = self.offset_start(start_rng, train_std)
             if evaluate_mean:
-                batch.append((self.offset_start(start_rng, train_std), target, mean, sensed))
+                batch.append((mean_start, target, mean, sensed))
             t0 = time.perf_counter()
             results = rollouts.evaluate(batch)
             rollout_seconds += time.perf_counter() - t0

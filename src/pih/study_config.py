@@ -60,12 +60,15 @@ def seed_key(point: Mapping[str, Any]) -> str:
 
 
 def sweep_points(
-    sweep: Mapping[str, list[Any]], variants: Mapping[str, Mapping[str, Any]] | None = None
+    sweep: Mapping[str, list[Any]],
+    variants: Mapping[str, Mapping[str, Any]] | None = None,
+    method: str = "bilevel",
 ) -> list[dict[str, Any]]:
     """The planning runs of a sweep: the Cartesian product of its levels, except that one-level
-    runs that differ only in settings of bilevel's outer level (``planner.outer.*`` keys, or
-    variants that change only those) are made once. Duplicate levels, unknown variants and keys
-    whose directory names would collide are errors."""
+    runs (by their level of ``planner.method``, their variant's, or else ``method``, the config's)
+    that differ only in settings of bilevel's outer level (``planner.outer.*`` keys, or variants
+    that change only those) are made once. Duplicate levels, unknown variants and keys whose
+    directory names would collide are errors."""
     variants = variants or {}
     for path, levels in sweep.items():
         encoded = [canonical_json(plain(v)) for v in levels]
@@ -91,8 +94,8 @@ def sweep_points(
     points, one_level_seen = [], set()
     for levels in itertools.product(*sweep.values()):
         point = dict(zip(sweep, (plain(v) for v in levels)))
-        if point.get(METHOD_KEY) == "one_level":
-            settings = {**variants.get(point.get(VARIANT_KEY), {}), **point}
+        settings = {**variants.get(point.get(VARIANT_KEY), {}), **point}
+        if settings.get(METHOD_KEY, method) == "one_level":
             key = canonical_json(
                 {
                     k: v
@@ -354,6 +357,12 @@ def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> N
                 replace(planner, deploy_start_std_m=std)
             except ConfigError as error:
                 raise ConfigError(f"robustness.start_std_m: {error}") from None
-    unknown = sorted(set(config["figure_point"]) - set(config["sweep"]))
+    figure_point = config["figure_point"]
+    unknown = sorted(set(figure_point) - set(config["sweep"]))
     if unknown:
         raise ConfigError(f"figure_point: {unknown} are not sweep keys ({sorted(config['sweep'])})")
+    if points and not any(all(p[k] == v for k, v in figure_point.items()) for p in points):
+        raise ConfigError(
+            f"figure_point: {dict(figure_point)} is not a sweep point, so Fig. 8 would show no "
+            "run; use levels from sweep"
+        )

@@ -17,7 +17,9 @@ validate(config, "../schemas/config.schema.json")
 
 # Sweep: each key a dotted config path, each value its levels; a run's directory is named by the
 # last path components and levels ("start_x_m~-0.035_method~bilevel_seed~0").
-POINTS = sweep_points(config["sweep"], config.get("variants"))
+POINTS = sweep_points(
+    config["sweep"], config.get("variants"), config["planner"]["method"]
+)
 SWEEP_PATHS = {path.rsplit(".", 1)[-1]: path for path in config["sweep"]}
 PLANNING = Paramspace(
     pd.DataFrame(
