@@ -52,6 +52,7 @@ def test_elite_fraction_one_gives_the_sample_mean() -> None:
 def test_uses_ceil_n_r_elites() -> None:
     config = OptimizerConfig(population_size=10, elite_fraction=0.25)
     assert config.n_elites == 3
+    assert OptimizerConfig(population_size=50, elite_fraction=0.14).n_elites == 7
     optimizer = make_optimizer(config, np.zeros(DIMENSION))
     assert isinstance(optimizer, EliteAveraging)
     samples = optimizer.ask()

@@ -91,8 +91,9 @@ class OptimizerConfig:
 
     @property
     def n_elites(self) -> int:
-        """ceil(n r), the size of the elite set of eq. 13."""
-        return math.ceil(self.elite_fraction * self.population_size)
+        """ceil(n r), the size of the elite set of eq. 13 (n r rounded first, so that a float
+        product such as 0.14 * 50 = 7.000000000000001 counts 7)."""
+        return math.ceil(round(self.elite_fraction * self.population_size, 9))
 
 
 def _checked_batch(
