@@ -8,6 +8,7 @@ import pytest
 from pih.aggregate import (
     ablation_table,
     cost_bands,
+    figure_bands,
     final_success_fraction,
     paired_table,
     robustness_pairs,
@@ -63,6 +64,17 @@ def test_bands_and_success_table_per_method_and_dimension():
     assert (overall["mean"], overall["var"], overall["count"]) == (2.0, 2.0, 2)
     per_seed = bands[(bands["dimension"] == "planner.seed") & (bands["method"] == "b")]
     assert per_seed.set_index("level")["mean"].to_dict() == {"0": 10.0, "1": 12.0}
+    # Fig. 9 draws the overall bands; an ablation's variants (other designs, other cost scales)
+    # one band each.
+    assert figure_bands(bands).equals(bands[bands["dimension"] == "all"])
+    variants = cost_bands(runs.assign(variant=["p", "q", "p", "q"]), ["planner.method", "variant"])
+    drawn = figure_bands(variants).set_index("method")["mean"].to_dict()
+    assert drawn == {
+        "a, variant p": 1.0,
+        "a, variant q": 3.0,
+        "b, variant p": 10.0,
+        "b, variant q": 12.0,
+    }
     summaries = pd.DataFrame(
         {
             "method": ["a", "a", "b"],

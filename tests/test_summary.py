@@ -101,6 +101,13 @@ def test_planning_rows_are_the_overall_rows_with_the_papers_claim():
     assert "100 %" not in rows.loc["bilevel/deepest_explored", "paper"]
     assert rows["deployment_success"].tolist() == [0.9, 0.6, 0.2]
     assert rows["final_mean_deployment_success"].tolist() == [0.7, 0.5, 0.1]
+    # An ablation's variants are different designs: one row per method and variant, not pooled.
+    ablation = pd.concat(
+        [_success(), _success().query("dimension == 'all'").assign(dimension="variant", level="x")]
+    )
+    rows = planning_rows(ablation)
+    assert set(rows["dimension"]) == {"variant"} and set(rows["level"]) == {"x"}
+    assert rows["deployment_success"].tolist() == [0.9, 0.6, 0.2]
 
 
 def test_summary_names_the_code_version_and_links_the_tables():

@@ -282,6 +282,7 @@ def _aggregate(paths: list[Path], output_dir: Path, reference_variant: str | Non
         PAIRED_COLUMNS,
         SEED_KEY,
         SUCCESS_COLUMNS,
+        figure_bands,
         level_columns,
         planning_tables,
         robustness_columns,
@@ -315,9 +316,8 @@ def _aggregate(paths: list[Path], output_dir: Path, reference_variant: str | Non
         write_table(frame, output_dir / f"{name}.parquet", provenance, columns)
     for name in ("success", "paired", "robustness"):
         write_text(output_dir / f"{name}.md", markdown_table(outputs[name][0]), provenance)
-    overall_bands = tables.bands[tables.bands["dimension"] == "all"]
     plots.save(
-        plots.cost_band_figure(overall_bands),
+        plots.cost_band_figure(figure_bands(tables.bands)),
         output_dir / "fig9_cost_bands.png",
         output_dir / "fig9_cost_bands.pdf",
         provenance=provenance,

@@ -69,6 +69,18 @@ def ablation_table(success: pd.DataFrame) -> pd.DataFrame:
     return success[~success["dimension"].isin(REPLICATE_KEYS)]
 
 
+def figure_bands(bands: pd.DataFrame) -> pd.DataFrame:
+    """The rows of :func:`cost_bands` that Fig. 9 draws: per method over all runs, or, where the
+    study compares another dimension (an ablation's variants, whose costs differ in scale and
+    design), per method and level of it, the method labelled ``<method>, <dimension> <level>``."""
+    compared = ablation_table(bands)
+    compared = compared[compared["dimension"] != "all"]
+    if compared.empty:
+        return bands[bands["dimension"] == "all"]
+    name = compared["dimension"].str.rsplit(".", n=1).str[-1]
+    return compared.assign(method=compared["method"] + ", " + name + " " + compared["level"])
+
+
 def variant(planner: Mapping[str, Any]) -> str:
     """A run's method as the study compares it: ``one_level``, or ``bilevel/<outer rule>``."""
     method = planner["method"]

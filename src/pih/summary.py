@@ -11,6 +11,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
+from pih.aggregate import ablation_table
 from pih.outputs import markdown_table
 
 # Paper Table 2: relative error (%) of the hydroelastic model against Whitney, per offset ε0 (m).
@@ -92,11 +93,17 @@ def chosen_variants(variants: pd.DataFrame) -> pd.DataFrame:
 
 
 def planning_rows(success: pd.DataFrame) -> pd.DataFrame:
-    """Deployment success per method over all runs, with its interval, beside the paper's claim."""
-    overall = success[success["dimension"] == "all"]
+    """Deployment success per method with its interval, beside the paper's claim: over all runs,
+    or per level where the study compares another dimension (an ablation's variants), whose
+    levels are different designs that do not pool."""
+    compared = ablation_table(success)
+    compared = compared[compared["dimension"] != "all"]
+    overall = compared if len(compared) else success[success["dimension"] == "all"]
+    levels = {"dimension": overall["dimension"], "level": overall["level"]} if len(compared) else {}
     return pd.DataFrame(
         {
             "method": overall["method"],
+            **levels,
             "paper": [PAPER_PLANNING.get(m, "") for m in overall["method"]],
             "runs": overall["runs"],
             "deployment_success": overall["deploy_success_rate"],

@@ -12,6 +12,7 @@ from pih.aggregate import (
     PAIRED_COLUMNS,
     SUCCESS_COLUMNS,
     best_training_rows,
+    figure_bands,
     level_columns,
     planning_tables,
     redeployment_summaries,
@@ -61,9 +62,8 @@ with logged(snakemake.log[0]):
         + (f"\n\n{markdown_table(against_reference)}" if len(against_reference) else ""),
         record,
     )
-    overall = bands[bands["dimension"] == "all"]
     plots.save(
-        plots.cost_band_figure(overall),
+        plots.cost_band_figure(figure_bands(bands)),
         snakemake.output.fig_bands,
         snakemake.output.fig_bands_pdf,
         provenance=record,
