@@ -179,6 +179,7 @@ def cost_band_figure(bands: pd.DataFrame, group: str = "method") -> plt.Figure:
             0.5, 0.5, "no finite cost: every rollout diverged", transform=ax.transAxes, ha="center"
         )
     ax.set_xlabel("iteration")
+    ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
     ax.set_ylabel("best inner cost $J_{inn}$ (eq. 11, dimensionless)")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
