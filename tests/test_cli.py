@@ -164,12 +164,10 @@ def write_study_run(
     method = config["planner"]["method"]
     point = {"planner.method": method, "planner.seed": 0, "planner.start_x_m": -0.035}
     extra = {"seed_key": seed_key, "result": provenance["result"]}
+    directory = root / study / "results" / "planning" / f"{method}_seed~0"
     if variant is not None:
-        name, overrides = variant
-        point["variant"] = name
-        extra["variant_overrides"] = overrides
-    name = f"{method}_variant~{variant[0]}_seed~0" if variant else f"{method}_seed~0"
-    directory = root / study / "results" / "planning" / name
+        point["variant"], extra["variant_overrides"] = variant
+        directory = directory.with_name(f"{method}_variant~{variant[0]}_seed~0")
     rollouts = run.rollouts.copy()
     if inserted is not None:
         rollouts.loc[rollouts["phase"] == "deploy", "success"] = inserted

@@ -69,12 +69,19 @@ def ablation_table(success: pd.DataFrame) -> pd.DataFrame:
     return success[~success["dimension"].isin(REPLICATE_KEYS)]
 
 
+def compared_rows(table: pd.DataFrame) -> pd.DataFrame:
+    """The rows of a per-dimension table (:func:`success_table`, :func:`cost_bands`) split by a
+    compared dimension (an ablation's variants: different designs that do not pool); empty when
+    the study compares none."""
+    rows = ablation_table(table)
+    return rows[rows["dimension"] != "all"]
+
+
 def figure_bands(bands: pd.DataFrame) -> pd.DataFrame:
     """The rows of :func:`cost_bands` that Fig. 9 draws: per method over all runs, or, where the
     study compares another dimension (an ablation's variants, whose costs differ in scale and
     design), per method and level of it, the method labelled ``<method>, <dimension> <level>``."""
-    compared = ablation_table(bands)
-    compared = compared[compared["dimension"] != "all"]
+    compared = compared_rows(bands)
     if compared.empty:
         return bands[bands["dimension"] == "all"]
     name = compared["dimension"].str.rsplit(".", n=1).str[-1]

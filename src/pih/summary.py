@@ -11,7 +11,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from pih.aggregate import ablation_table
+from pih.aggregate import compared_rows
 from pih.outputs import markdown_table
 
 # Paper Table 2: relative error (%) of the hydroelastic model against Whitney, per offset ε0 (m).
@@ -96,8 +96,7 @@ def planning_rows(success: pd.DataFrame) -> pd.DataFrame:
     """Deployment success per method with its interval, beside the paper's claim: over all runs,
     or per level where the study compares another dimension (an ablation's variants), whose
     levels are different designs that do not pool."""
-    compared = ablation_table(success)
-    compared = compared[compared["dimension"] != "all"]
+    compared = compared_rows(success)
     overall = compared if len(compared) else success[success["dimension"] == "all"]
     levels = {"dimension": overall["dimension"], "level": overall["level"]} if len(compared) else {}
     return pd.DataFrame(
