@@ -26,7 +26,8 @@ from collections import Counter
 import numpy as np
 from snakemake.utils import update_config
 
-from pih.planner import OuterConfig, Planner, PlannerConfig, replace
+from pih.planner import Planner
+from pih.planner_config import OuterConfig, PlannerConfig, replace
 from pih.scene import PegInHoleScene, RobotTrajectory, Trace
 from pih.scene_config import SceneConfig
 from pih.study_config import load_yaml_strictly, scene_with

@@ -56,7 +56,8 @@ def planning_run():
     from pih.config import to_mapping
     from pih.dmp import DmpConfig
     from pih.optimizers import OptimizerConfig
-    from pih.planner import Planner, PlannerConfig, replace
+    from pih.planner import Planner
+    from pih.planner_config import PlannerConfig, replace
     from pih.scene_config import SceneConfig
 
     config = replace(
@@ -68,24 +69,25 @@ def planning_run():
         dmp=DmpConfig(duration_s=1.0),
         optimizer=OptimizerConfig(population_size=2),
     )
-    run = Planner.from_configs(SceneConfig(), config).run()
+    scene = SceneConfig().replace(solver__time_step_s=0.002, solver__retry_time_step_s=0.001)
+    run = Planner.from_configs(scene, config).run()
     provenance = record(
         "plan",
-        config={"scene": to_mapping(SceneConfig()), "planner": to_mapping(config)},
+        config={"scene": to_mapping(scene), "planner": to_mapping(config)},
         extra={"seed_key": "", "result": {"cost_divisors": run.cost_divisors}},
     )
     return run, provenance
 
 
 def write_run(directory, run, provenance):
-    from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS
+    from pih.run_record import PATH_COLUMNS, ROLLOUT_COLUMNS
 
     write_table(run.rollouts, directory / "rollouts.parquet", provenance, ROLLOUT_COLUMNS)
     write_table(run.best_paths, directory / "best_paths.parquet", provenance, PATH_COLUMNS)
 
 
 def test_plot_draws_one_planning_run(tmp_path, capsys, planning_run):
-    from pih.planner import ROLLOUT_COLUMNS
+    from pih.run_record import ROLLOUT_COLUMNS
 
     run, provenance = planning_run
     write_run(tmp_path, run, provenance)
@@ -96,14 +98,36 @@ def test_plot_draws_one_planning_run(tmp_path, capsys, planning_run):
     assert main(["plot", str(tmp_path / "missing")]) == 1
     assert "not a planning run directory" in capsys.readouterr().err
 
-    # Any recorded rollout simulates again to the recorded end, as a Rerun recording.
+    # Any recorded rollout simulates again to the recorded end, as a Rerun recording, with one
+    # machine-readable line per replayed rollout.
     assert main(["replay", str(tmp_path), "phase == 'deploy' and rollout == 0"]) == 0
     out = capsys.readouterr().out
-    assert "= the record" in out and (tmp_path / "replay_deploy_2_0.rrd").stat().st_size > 1000
+    assert (tmp_path / "replay_deploy_2_0.rrd").stat().st_size > 1000
+    lines = [line for line in out.splitlines() if line.startswith("phase=")]
+    assert len(lines) == 1 and "same=1" in lines[0]
+    fields = dict(item.split("=") for item in lines[0].split())
+    assert fields["recorded_p2"] == fields["replayed_p2"]
+    assert fields["recorded_inserted"] == fields["replayed_inserted"]
     elsewhere = tmp_path / "elsewhere" / "deploy.rrd"
     elsewhere.parent.mkdir()
     assert main(["replay", str(tmp_path), "phase == 'deploy'", "--output", str(elsewhere)]) == 0
-    assert "= the record" in capsys.readouterr().out and elsewhere.stat().st_size > 1000
+    out = capsys.readouterr().out
+    assert out.count("same=1") == 2 and elsewhere.stat().st_size > 1000
+    # Under other physics (--set) the replay is the same motion at another step: it runs, says
+    # whether it ends elsewhere, and is no error.
+    setting = "scene.solver.time_step_s=0.001"  # the run was recorded at 2 ms
+    assert main(["replay", str(tmp_path), "phase == 'deploy' and rollout == 0", "--set", setting]) == 0
+    fields = dict(item.split("=") for item in capsys.readouterr().out.splitlines()[-1].split())
+    assert fields["status"] == "ok" and fields["same"] == "0"
+    for bad, key in [
+        ("scene.solver.time_step_sec=0.001", "time_step_sec"),
+        ("scene.solver.time_step_s=-1", "time_step_s"),
+        ("solver.time_step_s=0.001", "scene."),
+        ("scene.material.friction", "scene."),
+    ]:
+        assert main(["replay", str(tmp_path), "phase == 'deploy'", "--set", bad]) == 1
+        err = capsys.readouterr().err
+        assert key in err and len(err.strip().splitlines()) == 1
     # A run recorded before a key existed (here: without planner.train_start_std_m) replays.
     older = copy.deepcopy(provenance["config"])
     del older["planner"]["train_start_std_m"]
@@ -111,15 +135,35 @@ def test_plot_draws_one_planning_run(tmp_path, capsys, planning_run):
         run.rollouts, tmp_path / "rollouts.parquet", record("plan", config=older), ROLLOUT_COLUMNS
     )
     assert main(["replay", str(tmp_path), "phase == 'deploy' and rollout == 0"]) == 0
-    assert "= the record" in capsys.readouterr().out
+    assert "same=1" in capsys.readouterr().out
     moved = run.rollouts.assign(final_bottom_x_m=run.rollouts["final_bottom_x_m"] + 1e-9)
     write_table(moved, tmp_path / "rollouts.parquet", provenance, ROLLOUT_COLUMNS)
     assert main(["replay", str(tmp_path), "phase == 'deploy'"]) == 1
-    assert "DIFFERS from the record" in capsys.readouterr().out
+    assert "same=0" in capsys.readouterr().out
     assert main(["replay", str(tmp_path), "phase == 'no_such_phase'"]) == 1
-    assert "no row matches" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "no row matches" in err and "iteration 1–2" in err and "deploy" in err
     assert main(["replay", str(tmp_path), "phase ==="]) == 1
     assert "pih replay" in capsys.readouterr().err
+    assert main(["replay", str(tmp_path), "rolout == 3"]) == 1
+    err = capsys.readouterr().err
+    assert "no column 'rolout'" in err and "rollout" in err
+
+
+def test_replay_query_runs_no_code(tmp_path, capsys, planning_run):
+    """The query is parsed, never evaluated: the payload that ran `id` through
+    DataFrame.query's @-locals is refused and leaves no file."""
+    run, provenance = planning_run
+    write_run(tmp_path, run, provenance)
+    marker = tmp_path / "pwned"
+    for payload in [
+        f"@Path.home.__globals__['os'].system('id > {marker}') == 0",
+        f"phase == 'deploy' and __import__('os').system('id > {marker}') == 0",
+        f"phase.__class__ == 1 or open('{marker}', 'w')",
+    ]:
+        assert main(["replay", str(tmp_path), payload]) == 1
+        assert "pih replay" in capsys.readouterr().err
+    assert not marker.exists()
 
 
 def test_redeploy_deploys_the_policies_again_from_offset_starts(tmp_path, capsys, planning_run):
@@ -156,7 +200,7 @@ def write_study_run(
 ):
     """A planning run of study ``study`` under ``root``: the fixture's run with these planner
     settings, its deployments all inserted or not; with a variant, its name and overrides."""
-    from pih.planner import ROLLOUT_COLUMNS
+    from pih.run_record import ROLLOUT_COLUMNS
 
     run, provenance = planning_run
     config = copy.deepcopy(provenance["config"])
@@ -177,7 +221,7 @@ def write_study_run(
 
 
 def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, planning_run):
-    from pih.planner import ROLLOUT_COLUMNS
+    from pih.run_record import ROLLOUT_COLUMNS
 
     def study_run(study, **settings):
         return write_study_run(tmp_path, planning_run, study, **settings)
@@ -302,3 +346,99 @@ def test_aggregate_pools_ablation_variants_only_where_their_overrides_differ(
     write_study_run(tmp_path, planning_run, "d", method="bilevel", variant=fewer, iterations=3)
     assert pooled("a", "d") == 0
     capsys.readouterr()
+
+
+def test_show_reads_every_output_type_with_its_provenance(tmp_path, capsys, table):
+    """`pih show` on each type a study writes: what it holds and the record it carries."""
+    import matplotlib.pyplot as plt
+    from test_recordings import _insertion_trace
+
+    from pih import plots
+    from pih.outputs import markdown_table, write_text
+    from pih.recordings import record_insertion
+    from pih.scene_config import SceneConfig
+
+    provenance = record("test", seeds={"noise": 7})
+    figure, _ = plt.subplots(figsize=(2, 1))
+    plots.save(figure, tmp_path / "f.png", tmp_path / "f.pdf", provenance=provenance)
+    frame = pd.DataFrame({"force_n": [1.0, 2.0, 3.0], "label": ["a", "b", "c"]})
+    write_text(tmp_path / "t.md", markdown_table(frame), provenance)
+    frame.to_csv(tmp_path / "t.csv", index=False)  # beside its companion t.parquet (`table`)
+    record_insertion(tmp_path / "r.rrd", _insertion_trace(0.001), SceneConfig(), "r", provenance)
+    closing = (tmp_path / "t.md").read_text().rstrip().rsplit("\n", 1)[-1]  # a report page's
+    (tmp_path / "t.html").write_text(f"<title>T</title><table></table>\n{closing}\n")
+    expected = {
+        "f.png": ["PNG figure, ", " px, "],
+        "f.pdf": ["PDF figure, 1 page", f"provenance (in {tmp_path / 'f.png'})"],
+        "t.md": ["Markdown, 5 lines", "| force_n | label |", "| 3 | c |"],
+        "t.csv": ["CSV, 3 rows, 2 columns", "force_n  [N]  a force", f"(in {table})"],
+        "t.html": ["HTML page 'T', 1 table"],
+        "r.rrd": ["Rerun recording 'r'", "timelines: sim_time", "/world/scene/peg"],
+    }
+    for name, texts in expected.items():
+        assert main(["show", str(tmp_path / name)]) == 0, name
+        out = capsys.readouterr().out
+        for text in [*texts, "run id test", "seeds: noise=7"]:
+            assert text in out, (name, text, out)
+    # A figure not written by pih still shows, and says it carries no record.
+    plt.subplots(figsize=(2, 1))[0].savefig(tmp_path / "other.png")
+    assert main(["show", str(tmp_path / "other.png")]) == 0
+    assert "provenance: none" in capsys.readouterr().out
+
+
+def test_show_names_a_missing_file_and_the_closest_one(tmp_path, capsys, table):
+    (tmp_path / "runs" / "start_x_m~-0.035").mkdir(parents=True)
+    write_table(
+        pd.DataFrame({"x": [1]}),
+        tmp_path / "runs" / "start_x_m~-0.035" / "rollouts.parquet",
+        record("test"),
+        {"x": ("m", "x")},
+    )
+    for typo, closest in [
+        (tmp_path / "t.parqet", table),
+        (
+            tmp_path / "runs" / "start_x_m~-0.035" / "rolouts.parquet",
+            tmp_path / "runs" / "start_x_m~-0.035" / "rollouts.parquet",
+        ),
+        (
+            tmp_path / "run" / "start_x_m~-0.036" / "rollouts.parquet",
+            tmp_path / "runs" / "start_x_m~-0.035" / "rollouts.parquet",
+        ),
+    ]:
+        assert main(["show", str(typo)]) == 1
+        err = capsys.readouterr().err
+        assert err == f"pih show: no such file: {typo}; did you mean {closest}?\n"
+    nothing = tmp_path / "nothing_like_it.csv"
+    assert main(["show", str(nothing)]) == 1
+    assert capsys.readouterr().err == f"pih show: no such file: {nothing}\n"
+    for path, text in [(tmp_path / "runs", "is a directory"), (tmp_path, "is a directory")]:
+        assert main(["show", str(path)]) == 1
+        err = capsys.readouterr().err
+        assert text in err and "rollouts.parquet" in err and len(err.splitlines()) == 1
+    (tmp_path / "notes.txt").write_text("hello")
+    assert main(["show", str(tmp_path / "notes.txt")]) == 1
+    assert "not a type pih writes" in capsys.readouterr().err
+
+
+def test_run_figure_titles_every_panel_counts_whole_iterations_and_names_only_what_it_draws(
+    planning_run,
+):
+    from pih import plots
+    from pih.scene_config import SceneConfig
+
+    run, _ = planning_run
+    # No mean rollout inserted: the legend must not name "mean inserted".
+    rollouts = run.rollouts.assign(
+        success=run.rollouts["success"] & (run.rollouts["phase"] != "mean")
+    )
+    figure = plots.run_figure(rollouts, run.best_paths, SceneConfig().hole, "run")
+    figure.draw_without_rendering()
+    for ax in figure.axes:
+        assert ax.get_title(), "every panel titled"
+        legend = ax.get_legend()
+        drawn = {line.get_label() for line in ax.get_lines() if len(line.get_xdata())}
+        assert {t.get_text() for t in legend.get_texts()} <= drawn
+        if ax.get_xlabel() == "iteration":
+            ticks = [t for t in ax.get_xticks() if ax.get_xlim()[0] <= t <= ax.get_xlim()[1]]
+            assert ticks and all(float(t).is_integer() for t in ticks), ticks
+        assert "(" in ax.get_ylabel()  # a unit, or "dimensionless"

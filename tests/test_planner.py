@@ -8,29 +8,21 @@ import pandas as pd
 import pytest
 
 from pih.config import ConfigError, from_mapping, to_mapping
+from pih.costs import CostBalance, CostTerms, hole_distance, inner_cost
 from pih.dmp import DmpConfig
 from pih.optimizers import OptimizerConfig
-from pih.planner import (
-    CLEAN_OVERLAP_M,
-    CostBalance,
-    CostConfig,
-    CostTerms,
-    OuterConfig,
-    OuterLevel,
-    Planner,
-    PlannerConfig,
-    SensingConfig,
-    hole_distance,
-    inner_cost,
-    outer_goal,
-    recorded_rollout,
-    replace,
-    run_seeds,
-)
+from pih.outer import CLEAN_OVERLAP_M, OuterLevel, outer_goal
+from pih.planner import Planner, run_seeds
+from pih.planner_config import CostConfig, OuterConfig, PlannerConfig, SensingConfig, replace
+from pih.run_record import recorded_rollout
 from pih.scene_config import SceneConfig
 from pih.study_config import seed_key
 
 SENSING = SensingConfig(hole_std=(0.005, 0.001, 0.02))
+
+# Algorithm 1's bookkeeping (seeds, records, workers, deployment) does not depend on the time
+# step: these tests run on a 2 ms scene, 4× cheaper than the study's 0.5 ms.
+COARSE = SceneConfig().replace(solver__time_step_s=0.002, solver__retry_time_step_s=0.001)
 
 
 def test_inner_cost_terms_match_eq_11():
@@ -66,7 +58,7 @@ def test_outer_goal_is_the_explored_pose_nearest_the_sensed_hole():
 
 
 def test_sensed_hole_is_seeded_and_biased():
-    planner = Planner.from_configs(SceneConfig(), replace(PlannerConfig(), iterations=1))
+    planner = Planner.from_configs(COARSE, replace(PlannerConfig(), iterations=1))
     draws = np.array([planner.sense_hole(np.random.default_rng(s)) for s in range(400)])
     assert np.all(draws[:, 1:] == planner.scene.hole_pose[1:])
     assert draws[:, 0].mean() == pytest.approx(0.005, abs=0.001)
@@ -90,7 +82,7 @@ def short_config(iterations: int, population_size: int, **changes) -> PlannerCon
 @pytest.fixture(scope="module")
 def tiny_runs():
     config = short_config(iterations=2, population_size=3, deploy_policy="final_mean")
-    scene = SceneConfig()
+    scene = COARSE
     first = Planner.from_configs(scene, config).run()
     second = Planner.from_configs(scene, config).run()
     one_level = Planner.from_configs(scene, replace(config, method="one_level")).run()
@@ -100,11 +92,11 @@ def tiny_runs():
 def test_rollouts_in_worker_processes_give_the_same_run(tiny_runs):
     first, _, _ = tiny_runs
     config = short_config(iterations=2, population_size=3, deploy_policy="final_mean")
-    parallel = Planner.from_configs(SceneConfig(), config).run(workers=2)
+    parallel = Planner.from_configs(COARSE, config).run(workers=2)
     pd.testing.assert_frame_equal(parallel.rollouts, first.rollouts)
     pd.testing.assert_frame_equal(parallel.best_paths, first.best_paths)
     with pytest.raises(ConfigError, match="workers"):
-        Planner.from_configs(SceneConfig(), config).run(workers=0)
+        Planner.from_configs(COARSE, config).run(workers=0)
 
 
 def test_run_record_is_complete_and_deterministic(tiny_runs):
@@ -219,10 +211,10 @@ def test_convergence_stop_ends_the_run_early_and_says_why():
         convergence_window=2,
         convergence_tolerance=10.0,  # any two finite best costs within 10x of their mean
     )
-    record = Planner.from_configs(SceneConfig(), config).run()
+    record = Planner.from_configs(COARSE, config).run()
     assert record.stop_reason == "converged at iteration 2"
     assert record.rollouts["iteration"].max() == 2
-    budget = Planner.from_configs(SceneConfig(), replace(config, convergence_window=0)).run()
+    budget = Planner.from_configs(COARSE, replace(config, convergence_window=0)).run()
     assert budget.stop_reason == "iteration budget (5)"
     assert budget.rollouts["iteration"].max() == 5
 
@@ -266,7 +258,7 @@ def test_seeds_differ_between_sweep_points_and_are_shared_by_the_methods():
 
 def test_two_starts_draw_different_sensed_holes_and_both_methods_the_same():
     config = short_config(iterations=3, population_size=1, deploy_trials=1)
-    scene = SceneConfig()
+    scene = COARSE
 
     def sensed(start_x_m: float, method: str) -> list[float]:
         point = {"planner.start_x_m": start_x_m, "planner.method": method}
@@ -285,7 +277,7 @@ def test_two_starts_draw_different_sensed_holes_and_both_methods_the_same():
 def test_per_run_redraw_senses_the_hole_once():
     config = short_config(iterations=3, population_size=1, deploy_trials=1)
     once = replace(config, sensing=dataclasses.replace(config.sensing, redraw="per_run"))
-    rows = Planner.from_configs(SceneConfig(), once).run().rollouts
+    rows = Planner.from_configs(COARSE, once).run().rollouts
     train = rows[rows["phase"] == "train"]
     assert train["sensed_hole_x_m"].nunique() == 1
 
@@ -295,7 +287,7 @@ def test_last_inserted_mean_deploys_the_latest_mean_that_inserted(
     tiny_runs, monkeypatch, inserted_at
 ):
     config = short_config(iterations=2, population_size=3, deploy_policy="last_inserted_mean")
-    planner = Planner.from_configs(SceneConfig(), config)
+    planner = Planner.from_configs(COARSE, config)
     calls = iter([1, 2])
     monkeypatch.setattr(planner, "inserted", lambda trace, sensed: next(calls) in inserted_at)
     record = planner.run()
@@ -330,7 +322,7 @@ def tiny_run_with(**changes) -> tuple[Planner, pd.DataFrame]:
     config = short_config(
         iterations=2, population_size=3, **{"deploy_policy": "final_mean", **changes}
     )
-    planner = Planner.from_configs(SceneConfig(), config)
+    planner = Planner.from_configs(COARSE, config)
     return planner, planner.run().rollouts
 
 
@@ -398,7 +390,7 @@ def test_training_start_offsets_draw_their_own_stream(tiny_runs):
 def test_a_recorded_rollout_replays_exactly(tiny_runs):
     rows = tiny_runs[0].rollouts
     config = short_config(iterations=2, population_size=3, deploy_policy="final_mean")
-    planner = Planner.from_configs(SceneConfig(), config)
+    planner = Planner.from_configs(COARSE, config)
     for _, row in rows[rows["phase"].isin(["train", "deploy"])].iloc[[1, -1]].iterrows():
         start, target, weights, sensed = recorded_rollout(row)
         assert weights.shape == (3 * config.dmp.n_basis,)
@@ -411,7 +403,7 @@ def test_a_recorded_rollout_replays_exactly(tiny_runs):
 
 
 def test_inserted_is_judged_by_the_sensed_depth_only():
-    planner = Planner.from_configs(SceneConfig(), replace(PlannerConfig(), iterations=1))
+    planner = Planner.from_configs(COARSE, replace(PlannerConfig(), iterations=1))
     hole = planner.scene.hole_pose
     sensed = np.array([hole[0] + 0.004, hole[1], hole[2]])
     at_depth = _trace_at([[0.0, 0.0, 0.0], [hole[0], hole[1] + 0.0009, 0.0]])

@@ -3,6 +3,7 @@
 import numpy as np
 import pandas as pd
 import pytest
+import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
 from pih.recordings import SCENE, record_insertion, record_planning
@@ -132,3 +133,96 @@ def test_planning_recording_animates_the_peg_along_each_best_path(tmp_path):
     assert _column(chunks[f"/{SCENE}/true_hole"], "Points2D:labels") == [["true hole H"]]
     # The cost series skips the diverged iteration.
     assert _column(chunks["/cost/best"], "Scalars:scalars") == [[3.0], [2.0]]
+
+
+def _time_panel(path) -> dict[str, object]:
+    """The time-panel settings of a recording's default blueprint."""
+    reader = RrdReader(str(path))
+    (blueprint,) = reader.blueprints()
+    settings: dict[str, object] = {}
+    for chunk in reader.store(store=blueprint).stream():
+        if chunk.entity_path == "/time_panel":
+            for row in chunk.to_record_batch().to_pylist():
+                settings.update({k.split(":")[-1]: v for k, v in row.items() if ":" in k})
+    return settings
+
+
+def _show_labels(batches) -> list[bool]:
+    return [
+        v
+        for row in _column(
+            batches,
+            next(name for b in batches for name in b.schema.names if name.endswith(":show_labels")),
+        )
+        for v in row
+    ]
+
+
+def test_insertion_recording_opens_at_its_start_with_the_depth_in_mm(tmp_path):
+    path = tmp_path / "run.rrd"
+    record_insertion(path, _insertion_trace(0.001), SceneConfig(), "run", {"run_id": "run"})
+    chunks = _chunks(path)
+    # Rerun follows a file to its end unless told: the blueprint says paused, at the start.
+    panel = _time_panel(path)
+    assert panel["timeline"] == ["sim_time"]
+    assert panel["play_state"] == [rrb.components.PlayState.Paused.value]
+    # The depth in mm (in metres the plot's only tick read "0"), named with its unit.
+    (entity,) = [e for e in chunks if e.startswith("/depth/")]
+    assert _column(chunks[entity], "Scalars:scalars")[-1] == pytest.approx([10.0])
+    assert _column(chunks[entity], "SeriesLines:names") == [["insertion depth ℓ (mm)"]]
+    # The spring's label would sit on the robot frame's: it is named in the legend instead.
+    assert _show_labels(chunks[f"/{SCENE}/spring"]) == [False] * len(
+        _column(chunks[f"/{SCENE}/spring"], "LineStrips2D:labels")
+    )
+    assert "spring R–P1" in _labels(chunks[f"/{SCENE}/legend"])
+
+
+def test_planning_recording_opens_at_the_start_of_playback_with_a_legend(tmp_path):
+    rollouts = pd.DataFrame(
+        {
+            "iteration": [1, 2],
+            "is_best": True,
+            "sensed_hole_x_m": 0.001,
+            "sensed_hole_y_m": -0.01,
+            "target_x_m": 0.0,
+            "target_y_m": -0.01,
+            "cost": [2.0, 1.0],
+        }
+    )
+    t = np.arange(10) * 0.02
+    best_paths = pd.concat(
+        pd.DataFrame(
+            {
+                "iteration": i,
+                "time_s": t,
+                "robot_x_m": 0.0,
+                "robot_y_m": 0.035,
+                "robot_theta_rad": 0.0,
+                "peg_bottom_x_m": 0.0,
+                "peg_bottom_y_m": -0.01,
+                "peg_bottom_theta_rad": 0.0,
+            }
+        )
+        for i in (1, 2)
+    )
+    path = tmp_path / "run.rrd"
+    record_planning(path, rollouts, best_paths, SceneConfig(), "run", {"run_id": "run"})
+    panel = _time_panel(path)
+    assert panel["timeline"] == ["playback"]
+    assert panel["play_state"] == [rrb.components.PlayState.Paused.value]
+    chunks = _chunks(path)
+    # Everything that ends at the hole bottom is drawn without its label...
+    for entity in ("best_peg_tip_path", "best_robot_path", "goal", "sensed_hole"):
+        assert set(_show_labels(chunks[f"/{SCENE}/{entity}"])) == {False}, entity
+    # ...and named once in a legend, its entries apart, above the hole's top surface.
+    legend = chunks[f"/{SCENE}/legend"]
+    assert _labels(legend) == {
+        "best rollout: peg tip P2",
+        "best rollout: robot frame R",
+        "goal (peg-tip target)",
+        "sensed hole",
+        "spring R–P1",
+    }
+    (positions,) = _column(legend, "Points2D:positions")
+    heights = sorted(y for _, y in positions)
+    assert min(heights) > 0 and np.min(np.diff(heights)) >= 0.005

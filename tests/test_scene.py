@@ -8,6 +8,10 @@ from pih.frames import offset_along_axis, pose_matrix, pose_vector
 from pih.scene import PegInHoleScene, RobotTrajectory, TrajectoryError, _Snapshot
 from pih.scene_config import SceneConfig, wall_profile
 
+# The retry tests run at 2 ms with the retry at 1 ms: the mechanism does not depend on the step,
+# and the stiff spring that diverges at 2 ms (below) does not at the default 1 ms.
+TWO_MS = SceneConfig().replace(solver__time_step_s=0.002, solver__retry_time_step_s=0.001)
+
 
 def straight_line(start, stop, duration_s=1.5, hold_s=0.5, step_s=0.002) -> RobotTrajectory:
     """Smoothstep from start to stop over duration_s, then hold."""
@@ -118,8 +122,8 @@ def test_config_round_trip_and_strict_keys():
         ("solver", "time_step_s", 1e-12, r"scene\.solver\.time_step_s.*a step in"),
         ("solver", "retry_time_step_s", 0.003, r"scene\.solver\.retry_time_step_s.*divides"),
         ("solver", "retry_time_step_s", 0.0015, r"scene\.solver\.retry_time_step_s.*divides"),
-        ("solver", "check_interval_s", 0.001, r"scene\.solver\.check_interval_s.*whole number"),
-        ("solver", "check_interval_s", 0.251, r"scene\.solver\.check_interval_s.*whole number"),
+        ("solver", "check_interval_s", 0.0002, r"scene\.solver\.check_interval_s.*whole number"),
+        ("solver", "check_interval_s", 0.2502, r"scene\.solver\.check_interval_s.*whole number"),
         ("hole", "chamfer_width_m", -0.001, r"scene\.hole\.chamfer_width_m.*>= 0"),
         ("material", "friction", "high", r"scene\.material\.friction.*a number"),
         ("solver", "contact_model", "magic", r"scene\.solver\.contact_model.*one of"),
@@ -192,7 +196,7 @@ def test_a_trace_is_unchanged_by_the_next_rollout_on_the_same_scene(scene):
 def test_a_rollout_that_diverges_is_rerun_once_at_the_retry_step():
     # A spring twice as stiff as Table 4's: the explicit spring is unstable at 2 ms (its limit
     # scales as 1/sqrt(k): 2.5 ms -> 1.8 ms) and stable at 1 ms.
-    stiff = SceneConfig().replace(spring__stiffness=(2000.0, 2000.0, 2.0))
+    stiff = TWO_MS.replace(spring__stiffness=(2000.0, 2000.0, 2.0))
     no_retry = PegInHoleScene(stiff.replace(solver__retry_time_step_s=0.0))
     hole = stiff.hole
     robot = straight_line(
@@ -212,16 +216,17 @@ def test_a_rollout_that_diverges_is_rerun_once_at_the_retry_step():
 
 
 def test_a_trajectory_ending_between_float_grid_points_runs_to_its_end(scene):
-    # linspace's 3.3 lies just below 1650 × 2 ms in floating point, where Drake's last step is
+    # linspace's 3.3 lies just below 6600 × 0.5 ms in floating point, where Drake's last step is
     # due: the rollout must still take that step and log its sample.
     hole = scene.config.hole
     start = robot_for_tip(scene, hole.x_m - 0.03, hole.top_y_m + 0.01)
-    times = np.linspace(0.0, 3.3, 1651)
-    assert times[-1] < 1650 * 0.002
+    assert scene.config.solver.time_step_s == 0.0005
+    times = np.linspace(0.0, 3.3, 6601)
+    assert times[-1] < 6600 * 0.0005
     robot = RobotTrajectory(times, np.tile(start, (times.size, 1)))
     trace = scene.rollout(robot)
     assert trace.ok, trace.reason
-    assert len(trace) == 1651 and trace.time_s[-1] == pytest.approx(3.3)
+    assert len(trace) == 6601 and trace.time_s[-1] == pytest.approx(3.3)
 
 
 def _fail_once_at(scene: PegInHoleScene, t_s: float, reason: str = "injected") -> None:
@@ -254,7 +259,7 @@ def _sideways_above_the_hole(scene: PegInHoleScene) -> RobotTrajectory:
 
 
 def test_only_the_interval_that_diverged_is_rerun_at_the_retry_step():
-    config = SceneConfig()
+    config = TWO_MS
     plain = PegInHoleScene(config)
     robot = _sideways_above_the_hole(plain)
     reference = plain.rollout(robot)
@@ -290,7 +295,7 @@ def _state_at(scene: PegInHoleScene, robot: RobotTrajectory, t_s: float):
 def test_the_interval_retry_runs_with_point_contact():
     # Point-contact results name the scene's geometry: nothing of them may cross to the retry
     # scene (it raised "GeometryId ... not known to this plant" once).
-    config = SceneConfig().replace(solver__contact_model="point")
+    config = TWO_MS.replace(solver__contact_model="point")
     hole = config.hole
     scene = PegInHoleScene(config)
     robot = straight_line(
@@ -305,7 +310,7 @@ def test_the_interval_retry_runs_with_point_contact():
 
 
 def test_an_interval_that_diverges_again_at_the_retry_step_ends_the_rollout():
-    scene = PegInHoleScene(SceneConfig())
+    scene = PegInHoleScene(TWO_MS)
     robot = _sideways_above_the_hole(scene)
     fine_intervals = _fine_scene_calls(scene)
     _fail_once_at(scene, 0.75, "coarse failure")

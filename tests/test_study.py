@@ -18,7 +18,7 @@ from pih.aggregate import (
     wilson_interval,
 )
 from pih.config import ConfigError, to_mapping
-from pih.planner import PlannerConfig
+from pih.planner_config import PlannerConfig
 from pih.scene_config import SceneConfig
 from pih.study_config import override, resolve, seed_key, sweep_points, variant_overrides
 
@@ -89,6 +89,7 @@ def test_bands_and_success_table_per_method_and_dimension():
             "diverged_fraction": [0.1, 0.0, 0.2],
             "retried_fraction": [0.04, 0.02, 0.0],
             "deploy_diverged_fraction": [0.0, 0.5, 1.0],
+            "deploy_repeats_training": [True, True, False],
         }
     )
     table = success_table(summaries, ["planner.method", "planner.seed"])
@@ -116,6 +117,8 @@ def test_bands_and_success_table_per_method_and_dimension():
     assert overall.loc["a", "deploy_diverged_fraction"] == 0.25
     assert overall.loc["a", "retried_rollout_fraction"] == pytest.approx(0.03)
     assert overall.loc["a", "first_success_rate"] == 0.5
+    assert overall.loc["a", "runs_repeating_training"] == 2
+    assert overall.loc["b", "runs_repeating_training"] == 0
     seed_one = table[(table["dimension"] == "planner.seed") & (table["level"] == "1")]
     assert seed_one["method"].tolist() == ["a"] and seed_one["runs"].tolist() == [1]
     # The ablation table pools the replicates (seeds, starts) and keeps the compared dimensions.
@@ -337,3 +340,25 @@ def test_a_command_line_config_file_replaces_the_validation_variants_whole(tmp_p
     assert config["validation"]["variants"] == {"b": {"material.margin_m": 0.0}}
     assert config["validation"]["offsets_m"] == [0.001]  # other keys merge as Snakemake does
     assert config["sweep"] == {"planner.seed": [0, 1]}  # a file without a sweep keeps it
+
+
+def test_deployments_that_only_repeat_a_training_rollout_are_recognised():
+    from pih.aggregate import repeats_training
+
+    def rows(phase, *poses):
+        return pd.DataFrame(
+            {
+                "phase": phase,
+                "final_bottom_x_m": [p[0] for p in poses],
+                "final_bottom_y_m": [p[1] for p in poses],
+                "final_bottom_theta_rad": [p[2] for p in poses],
+            }
+        )
+
+    means = rows("mean", (0.01, -0.01, 0.0), (0.0, -0.0099, 0.001))
+    same = rows("deploy", (0.0, -0.0099, 0.001), (0.0, -0.0099, 0.001))
+    assert repeats_training(pd.concat([means, same]))
+    # One trial that ended elsewhere (a fresh sensing or an offset start) is a real deployment.
+    other = rows("deploy", (0.0, -0.0099, 0.001), (0.0, -0.0099, 0.0010001))
+    assert not repeats_training(pd.concat([means, other]))
+    assert not repeats_training(means) and not repeats_training(same)

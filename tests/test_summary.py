@@ -84,30 +84,60 @@ def _success() -> pd.DataFrame:
             "deploy_ci_low": [0.6, 0.3, 0.05, 0.0],
             "deploy_ci_high": [0.98, 0.85, 0.5, 0.8],
             "final_mean_deploy_success_rate": [0.7, 0.5, 0.1, 0.0],
+            "final_mean_deploy_ci_low": [0.4, 0.2, 0.02, 0.0],
+            "final_mean_deploy_ci_high": [0.9, 0.8, 0.4, 0.8],
             "median_goal_iteration": [6.0, 12.0, np.nan, np.nan],
+            "runs_repeating_training": [9, 0, 0, 0],
         }
     )
 
 
-def test_planning_rows_are_the_overall_rows_with_the_papers_claim():
-    rows = planning_rows(_success()).set_index("method")
+def _robustness() -> pd.DataFrame:
+    """Perturbed redeployment (1 mm) per method, and a 3 mm level the headline does not use."""
+    return pd.DataFrame(
+        {
+            "method": ["bilevel/deepest_explored", "bilevel/explored_argmin", "one_level", "one_level"],
+            "start_std_m": [0.001, 0.001, 0.001, 0.003],
+            "runs": [10, 10, 10, 10],
+            "deploy_success_rate": [0.8, 0.55, 0.25, 0.1],
+            "deploy_ci_low": [0.5, 0.3, 0.1, 0.02],
+            "deploy_ci_high": [0.95, 0.8, 0.6, 0.4],
+            "runs_all_inserted": [6, 3, 0, 0],
+        }
+    )
+
+
+def test_planning_rows_lead_with_offset_starts_beside_the_papers_claim():
+    rows = planning_rows(_success(), _robustness()).set_index("method")
     assert rows.index.tolist() == [
         "bilevel/deepest_explored",
         "bilevel/explored_argmin",
         "one_level",
     ]
+    # The headline column is the smallest σ > 0 redeployed; the nominal one follows it.
+    columns = rows.columns.tolist()
+    assert columns.index("from starts 1 mm off") < columns.index("from the training start")
+    assert rows["from starts 1 mm off"].tolist() == [
+        "0.80 (0.50–0.95)",
+        "0.55 (0.30–0.80)",
+        "0.25 (0.10–0.60)",
+    ]
+    assert rows["from the training start"].tolist()[0] == "0.90 (0.60–0.98)"
+    assert rows["runs only repeating training"].tolist() == [9, 0, 0]
+    assert rows["final mean, training start"].tolist()[2] == "0.10 (0.02–0.40)"
     # The paper's 100 % is its own rule's claim; it has no number for ours.
     assert rows.loc["bilevel/explored_argmin", "paper"].startswith("100 %")
     assert "100 %" not in rows.loc["bilevel/deepest_explored", "paper"]
-    assert rows["deployment_success"].tolist() == [0.9, 0.6, 0.2]
-    assert rows["final_mean_deployment_success"].tolist() == [0.7, 0.5, 0.1]
+    # Without a redeployment the headline says so rather than showing the nominal numbers.
+    bare = planning_rows(_success(), _robustness().query("start_std_m == 0"))
+    assert set(bare["from offset starts"]) == {"— (not redeployed)"}
     # An ablation's variants are different designs: one row per method and variant, not pooled.
     ablation = pd.concat(
         [_success(), _success().query("dimension == 'all'").assign(dimension="variant", level="x")]
     )
-    rows = planning_rows(ablation)
+    rows = planning_rows(ablation, _robustness().assign(variant="x"))
     assert set(rows["dimension"]) == {"variant"} and set(rows["level"]) == {"x"}
-    assert rows["deployment_success"].tolist() == [0.9, 0.6, 0.2]
+    assert rows["from starts 1 mm off"].tolist()[0] == "0.80 (0.50–0.95)"
 
 
 def test_summary_names_the_code_version_and_links_the_tables():
@@ -126,27 +156,42 @@ def test_summary_names_the_code_version_and_links_the_tables():
             "sign_test_p": [0.000488, 0.03125],
         }
     )
-    robustness = pd.DataFrame(
-        {
-            "method": ["one_level"],
-            "start_std_m": [0.001],
-            "runs": [3],
-            "deploy_success_rate": [0.25],
-        }
+    paired = pd.concat(
+        [
+            paired,
+            paired.iloc[:1].assign(
+                dimension="start_std_m", level="0.001", better=7, worse=2, tied=3, sign_test_p=0.18
+            ),
+        ]
     )
+    study = {
+        "config_files": ["config/config.yaml", "config/smoke.yaml"],
+        "default": False,
+        "iterations": 3,
+        "rollouts_per_iteration": 4,
+        "deploy_trials": 2,
+        "planning_runs": 6,
+    }
     text = summary_markdown(
         _comparison(),
         variants,
         _success(),
         paired,
-        robustness,
+        _robustness(),
         "abc123",
         {"success": "planning/s.md"},
+        study,
     )
-    assert "| one_level | 0.001 | 3 | 0.25 |" in text
+    assert "| bilevel/deepest_explored | one_level | 12 | 7 | 2 | 3 | 0.89 | 0.18 |" in text
     assert "| bilevel/deepest_explored | one_level | 12 | 12 | 0 | 0 | 0.89 | 0.000488 |" in text
+    assert text.index("| 7 | 2 | 3 |") < text.index("| 12 | 0 | 0 |")  # offset starts first
     assert "0.03125" not in text  # only the overall comparison
     assert "`abc123`" in text
+    assert "`config/config.yaml`, `config/smoke.yaml`; budget 3 iterations × 4 rollouts" in text
+    assert "6 planning runs" in text and "Not the default study" in text
+    assert "Not the default study" not in summary_markdown(
+        _comparison(), variants, _success(), paired, _robustness(), "abc123", {}, study | {"default": True}
+    )
     assert "- [success](planning/s.md)" in text
     assert text.index("Would the learned policy insert") < text.index("Whitney")
 

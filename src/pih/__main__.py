@@ -4,10 +4,12 @@
 - ``pih provenance FILE... [--key K]``: the full provenance record (Parquet or recording);
 - ``pih plot RUN_DIR [--output F]``: one planning run's cost curve and best paths, as
   ``RUN_DIR/run.png`` or ``F``;
-- ``pih replay RUN_DIR QUERY [--output F]``: simulate again the first rollout of the run
-  matching a pandas query (e.g. ``"phase == 'deploy' and rollout == 3"``), check it ends where
-  the record says, and write it as a Rerun recording
-  ``RUN_DIR/replay_<phase>_<iteration>_<rollout>.rrd`` (or ``F``);
+- ``pih replay RUN_DIR QUERY [--set KEY=VALUE ...] [--output F]``: simulate again the rollouts
+  of the run that the query selects (``column op value`` terms joined by and/or, e.g.
+  ``"phase == 'deploy' and rollout == 3"``; parsed, never evaluated), one machine-readable line
+  each: recorded and replayed end pose of P2 and whether each inserted; the first as a Rerun
+  recording ``RUN_DIR/replay_<phase>_<iteration>_<rollout>.rrd`` (or ``F``). ``--set
+  scene.solver.time_step_s=0.0005`` replays under other physics;
 - ``pih redeploy RUN... --start-std-m S``: deploy each run's learned policy again (a run is its
   directory or its ``rollouts.parquet``), as it would have deployed with
   ``planner.deploy_start_std_m = S`` (same sensed holes and targets, starts from its deployment
@@ -19,21 +21,62 @@
   counted once; runs must differ only in their sweep levels (docs/planner.md, "Pooling
   studies");
   ``--reference-variant V`` also compares each variant of an ablation with ``V``;
+- ``pih compare OLD NEW [--rtol R]``: which headline numbers (deployment success, paired
+  comparisons, Table 2–3) and which planning runs' data differ between two result trees, e.g.
+  ``pih compare published/default results`` after a fresh ``snakemake -j2``; exit 0 when none;
+- ``pih publish [RESULTS]``: copy a finished default study's outputs (data, tables, figures,
+  provenance; not the recordings) into ``published/default``, the files README's numbers come
+  from;
 - ``pih schema``: the JSON schema of the study's config;
 - ``pih job TARGET [--configfile F ...]``: run the workflow script that makes ``TARGET`` in this
   process, outside Snakemake, for debugging (``python -m pdb -m pih job TARGET``).
+
+Every error is one line on stderr and exit status 1 (``PIH_TRACEBACK=1`` shows the traceback);
+an error in the script ``pih job`` runs keeps its traceback.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import json
+import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from pih.outputs import read_output_provenance, read_provenance
 
+_RUNNING_SCRIPT = False  # set while `pih job` runs a workflow script: its errors keep tracebacks
 
+
+def _one_line_errors(command: Callable[[list[str] | None], int]) -> Callable[..., int]:
+    """Any error of a command as one line (``pih COMMAND: what``) and exit status 1."""
+
+    @functools.wraps(command)
+    def run(argv: list[str] | None = None) -> int:
+        try:
+            return command(argv)
+        except Exception as error:
+            if _RUNNING_SCRIPT or os.environ.get("PIH_TRACEBACK", "") not in ("", "0"):
+                raise
+            words = sys.argv[1:] if argv is None else argv
+            name = " ".join(["pih", *[w for w in words if not w.startswith("-")][:1]])
+            print(f"{name}: {_describe(error)}", file=sys.stderr)
+            return 1
+
+    return run
+
+
+def _describe(error: Exception) -> str:
+    if isinstance(error, KeyError):
+        return f"missing key {error.args[0]!r} (KeyError)" if error.args else "KeyError"
+    if isinstance(error, OSError) and error.strerror:
+        return f"{error.filename}: {error.strerror}" if error.filename else error.strerror
+    return f"{_first_line(error)} ({type(error).__name__})"
+
+
+@_one_line_errors
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="pih", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
@@ -41,15 +84,28 @@ def main(argv: list[str] | None = None) -> int:
     show.add_argument("files", nargs="+", type=Path, help="Parquet outputs (or .rrd recordings)")
     show.add_argument("--key", help="print only this top-level key")
     commands.add_parser("schema", help="print the JSON schema of config/config.yaml")
-    look = commands.add_parser("show", help="columns, units, rows and provenance of a Parquet file")
-    look.add_argument("file", type=Path)
+    look = commands.add_parser(
+        "show",
+        help="what an output holds (columns and rows, first lines, figure size, recording "
+        "entities) and its provenance",
+    )
+    look.add_argument("file", type=Path, help=f"an output file ({SHOWN_TYPES})")
     plot = commands.add_parser("plot", help="cost curve and best paths of one planning run")
     plot.add_argument("run", type=Path, help="a results/planning/<sweep point>/ directory")
     plot.add_argument("--output", type=Path, help="the PNG to write (default RUN_DIR/run.png)")
     replay = commands.add_parser("replay", help="simulate one recorded rollout again, to Rerun")
     replay.add_argument("run", type=Path, help="a results/planning/<sweep point>/ directory")
     replay.add_argument(
-        "query", help="pandas query on rollouts.parquet, e.g. \"phase == 'deploy'\""
+        "query",
+        help="rows of rollouts.parquet: column op value terms joined by and/or, e.g. "
+        "\"phase == 'deploy' and rollout == 3\" (parsed, never evaluated as code)",
+    )
+    replay.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="replay under other physics, e.g. --set scene.solver.time_step_s=0.0005 (repeatable)",
     )
     replay.add_argument(
         "--output",
@@ -81,6 +137,18 @@ def main(argv: list[str] | None = None) -> int:
     pooled.add_argument(
         "--reference-variant", help="compare each variant of an ablation against this one"
     )
+    check = commands.add_parser(
+        "compare", help="which headline numbers and run data of two result trees differ"
+    )
+    check.add_argument("old", type=Path, help="a results tree, e.g. published/default")
+    check.add_argument("new", type=Path, help="another, e.g. results")
+    check.add_argument(
+        "--rtol", type=float, default=1e-9, help="relative tolerance for numbers (default 1e-9)"
+    )
+    publish = commands.add_parser(
+        "publish", help="copy a finished default study into published/default (README's source)"
+    )
+    publish.add_argument("results", type=Path, nargs="?", default=Path("results"))
     job = commands.add_parser("job", help="run the workflow script that makes TARGET, here")
     job.add_argument(
         "target", help="an output path, e.g. results/validation/point/offset_m~0.001.parquet"
@@ -94,11 +162,23 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "plot":
         return _plot(args.run, args.output)
     if args.command == "replay":
-        return _replay(args.run, args.query, args.output)
+        return _replay(args.run, args.query, args.output, args.set)
     if args.command == "redeploy":
         return _redeploy(args.runs, args.start_std_m, args.output, args.workers)
     if args.command == "aggregate":
         return _aggregate(args.paths, args.output_dir, args.reference_variant)
+    if args.command == "publish":
+        from pih.published import PUBLISHED_DIR, publish
+
+        try:
+            copied = publish(args.results)
+        except OSError as error:
+            print(f"pih publish: {_first_line(error)}", file=sys.stderr)
+            return 1
+        print(f"{PUBLISHED_DIR}: {copied} files from {args.results}")
+        return 0
+    if args.command == "compare":
+        return _compare(args.old, args.new, args.rtol)
     if args.command == "schema":
         from pih.study_config import config_schema
 
@@ -128,39 +208,219 @@ def _first_line(error: Exception) -> str:
     return str(error).splitlines()[0] if str(error) else type(error).__name__
 
 
-def _show(path: Path) -> int:
-    import pyarrow.parquet as pq
+SHOWN_SUFFIXES = (".parquet", ".csv", ".md", ".html", ".png", ".pdf", ".rrd")
+SHOWN_TYPES = ", ".join(SHOWN_SUFFIXES)
 
-    try:
-        meta = pq.ParquetFile(path).metadata
-        schema = pq.read_schema(path)
-        record = read_provenance(path)
-    except Exception as error:  # noqa: BLE001 - any unreadable file: one clear line
-        first = _first_line(error)
-        print(f"{path}: not a pih Parquet output ({first})", file=sys.stderr)
+
+def _show(path: Path) -> int:
+    """What an output holds and where it came from, by type: a Parquet or CSV table's columns
+    (with units) and rows, a Markdown file's first lines, a figure's size, a recording's
+    entities and timelines; then its provenance (its own record; a CSV's is in its companion
+    Parquet, a PDF's in its companion PNG). A missing path suggests the closest existing one."""
+    if not path.exists():
+        print(f"pih show: no such file: {path}{_did_you_mean(path)}", file=sys.stderr)
         return 1
-    print(f"{path}: {meta.num_rows} rows, {len(schema)} columns")
-    width = max(len(field.name) for field in schema)
+    if path.is_dir():
+        inside = next((p for p in sorted(path.rglob("*")) if p.suffix in SHOWN_SUFFIXES), None)
+        hint = f"; e.g. pih show {inside}" if inside else ""
+        print(f"pih show: {path} is a directory, not a file{hint}", file=sys.stderr)
+        return 1
+    kinds = {
+        ".parquet": ("Parquet", _show_parquet),
+        ".csv": ("CSV", _show_csv),
+        ".md": ("Markdown", _show_markdown),
+        ".html": ("HTML", _show_html),
+        ".png": ("PNG", _show_png),
+        ".pdf": ("PDF", _show_pdf),
+        ".rrd": ("Rerun recording", _show_rrd),
+    }
+    if path.suffix.lower() not in kinds:
+        print(f"pih show: {path}: not a type pih writes ({SHOWN_TYPES})", file=sys.stderr)
+        return 1
+    kind, describe = kinds[path.suffix.lower()]
+    try:
+        lines, record, carrier = describe(path)
+    except Exception as error:  # noqa: BLE001 - any unreadable file: one clear line
+        print(f"pih show: {path}: not a pih {kind} output ({_first_line(error)})", file=sys.stderr)
+        return 1
+    print("\n".join(lines))
+    if record is None:
+        print("provenance: none in the file (not written by pih?)")
+        return 0
+    if carrier is not None:
+        print(f"provenance (in {carrier}):")
+    seeds = ", ".join(f"{k}={v}" for k, v in sorted(record.get("seeds", {}).items()))
+    print(f"step {record.get('step', '?')}; run id {record.get('run_id', '?')}")
+    print(f"seeds: {seeds or '-'}; config sha256 {str(record.get('config_sha256', '?'))[:12]}")
+    details = [
+        f"code {record['code_version']}" if "code_version" in record else "",
+        f"library {str(record.get('library_sha256', '?'))[:12]}",
+        f"drake {record.get('packages', {}).get('drake', '?')}",
+        f"created {record['created_utc']}" if "created_utc" in record else "",
+    ]
+    print(", ".join(d for d in details if d))
+    return 0
+
+
+def _did_you_mean(path: Path) -> str:
+    """``"; did you mean P?"`` for the existing path closest to ``path``, name by name from its
+    deepest existing ancestor (difflib), or ``""``."""
+    import difflib
+
+    base, missing = path, []
+    while not base.exists() and base != base.parent:
+        missing.insert(0, base.name)
+        base = base.parent
+    guess = base
+    for name in missing:
+        if (guess / name).exists():
+            guess = guess / name
+            continue
+        try:
+            names = [p.name for p in guess.iterdir()] if guess.is_dir() else []
+        except OSError:
+            return ""
+        match = difflib.get_close_matches(name, names, n=1, cutoff=0.6)
+        if not match:
+            return ""
+        guess = guess / match[0]
+    return f"; did you mean {guess}?" if guess.exists() and guess != path else ""
+
+
+_ShowResult = tuple[list[str], dict | None, Path | None]  # lines, record, the file it is in
+
+
+def _columns(schema) -> list[str]:  # a pyarrow schema, or a list of its fields
+    width = max((len(field.name) for field in schema), default=0)
+    lines = []
     for field in schema:
         info = {k.decode(): v.decode() for k, v in (field.metadata or {}).items()}
         unit = info.get("unit") or "-"
-        print(f"  {field.name:<{width}}  [{unit}]  {info.get('description', '')}")
-    seeds = ", ".join(f"{k}={v}" for k, v in sorted(record.get("seeds", {}).items()))
-    print(f"step {record['step']}; run id {record['run_id']}")
-    print(f"seeds: {seeds or '-'}; config sha256 {record['config_sha256'][:12]}")
-    print(
-        f"code {record['code_version']}, library {record['library_sha256'][:12]}, "
-        f"drake {record['packages']['drake']}, created {record['created_utc']}"
-    )
-    return 0
+        lines.append(f"  {field.name:<{width}}  [{unit}]  {info.get('description', '')}")
+    return lines
+
+
+def _show_parquet(path: Path) -> _ShowResult:
+    import pyarrow.parquet as pq
+
+    meta = pq.ParquetFile(path).metadata
+    schema = pq.read_schema(path)
+    record = read_provenance(path)
+    return [f"{path}: {meta.num_rows} rows, {len(schema)} columns", *_columns(schema)], record, None
+
+
+def _show_csv(path: Path) -> _ShowResult:
+    import pandas as pd
+    import pyarrow.parquet as pq
+
+    table = pd.read_csv(path)
+    head = f"{path}: CSV, {len(table)} rows, {len(table.columns)} columns"
+    companion = path.with_suffix(".parquet")  # e.g. success.csv beside success.parquet
+    try:
+        schema = pq.read_schema(companion)
+        record = read_provenance(companion)
+    except Exception:  # noqa: BLE001 - no companion: the columns without units
+        return [head, *(f"  {name}" for name in table.columns)], None, None
+    fields = [schema.field(name) for name in table.columns if name in schema.names]
+    others = [f"  {name}  [-]" for name in table.columns if name not in schema.names]
+    return [head, *_columns(fields), *others], record, companion
+
+
+def _show_markdown(path: Path) -> _ShowResult:
+    from pih.outputs import MARKDOWN_PROVENANCE
+
+    text = [line for line in path.read_text().splitlines() if line.strip()]
+    shown = [line for line in text if not line.startswith(MARKDOWN_PROVENANCE)]
+    first = [f"  {line if len(line) <= 120 else line[:119] + '…'}" for line in shown[:8]]
+    more = [f"  … ({len(shown) - 8} more lines)"] if len(shown) > 8 else []
+    try:
+        record = read_output_provenance(path)
+    except ValueError:  # no closing provenance comment
+        record = None
+    return [f"{path}: Markdown, {len(shown)} lines; first lines:", *first, *more], record, None
+
+
+def _show_html(path: Path) -> _ShowResult:
+    """A report page (results/report/): its title and tables; its record is the closing comment
+    it copies from the markdown it shows."""
+    import re
+
+    from pih.outputs import MARKDOWN_PROVENANCE
+
+    text = path.read_text()
+    title = re.search(r"<title>(.*?)</title>", text, re.DOTALL)
+    tables = len(re.findall(r"<table\b", text))
+    head = f"{path}: HTML page {title[1].strip()!r}, " if title else f"{path}: HTML page, "
+    head += f"{tables} table{'s' * (tables != 1)}, {len(text.encode()) / 1024:.0f} kB"
+    last = text.rstrip().rsplit("\n", 1)[-1]
+    record = None
+    if last.startswith(MARKDOWN_PROVENANCE) and last.endswith(" -->"):
+        record = json.loads(last[len(MARKDOWN_PROVENANCE) : -len(" -->")])
+    return [head], record, None
+
+
+def _show_png(path: Path) -> _ShowResult:
+    from PIL import Image
+
+    with Image.open(path) as image:
+        width, height = image.size
+        image.verify()
+    kb = path.stat().st_size / 1024
+    head = f"{path}: PNG figure, {width} × {height} px, {kb:.0f} kB"
+    try:
+        record = read_output_provenance(path)
+    except ValueError:  # no pih.provenance text chunk
+        record = None
+    return [head], record, None
+
+
+def _show_pdf(path: Path) -> _ShowResult:
+    import re
+
+    data = path.read_bytes()
+    if not data.startswith(b"%PDF"):
+        raise ValueError("no %PDF header")
+    pages = len(re.findall(rb"/Type\s*/Page\b", data))
+    head = f"{path}: PDF figure, {pages} page{'s' * (pages != 1)}, {len(data) / 1024:.0f} kB"
+    companion = path.with_suffix(".png")  # the figure's PNG carries the full record
+    try:
+        return [head], read_output_provenance(companion), companion
+    except Exception:  # noqa: BLE001 - no companion: the run id and hashes the PDF carries
+        subject = re.search(rb"/Subject \((.*?)\)", data)
+        words = re.search(rb"/Keywords \((.*?)\)", data)
+        if subject is None:
+            return [head], None, None
+        record = dict(w.split("=", 1) for w in (words[1].decode() if words else "").split())
+        return [head], {"run_id": subject[1].decode(), **record}, None
+
+
+def _show_rrd(path: Path) -> _ShowResult:
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(str(path))
+    (recording, *_) = reader.recordings()
+    entities, timelines = set(), set()
+    for chunk in reader.store().stream():
+        if not chunk.entity_path.startswith("/__"):
+            entities.add(chunk.entity_path)
+            timelines.update(chunk.timeline_names)
+    kb = path.stat().st_size / 1024
+    lines = [
+        f"{path}: Rerun recording {recording.recording_id!r}, {kb:.0f} kB (rerun {path})",
+        f"  timelines: {', '.join(sorted(timelines - {'log_time'})) or '-'}",
+        f"  {len(entities)} entities: {', '.join(sorted(entities))}",
+    ]
+    return lines, read_output_provenance(path), None
 
 
 def _plot(run: Path, output: Path | None) -> int:
     import pandas as pd
 
     from pih import plots
-    from pih.planner import RecordedRun
+    from pih.run_record import RecordedRun
 
+    if _missing_parent("plot", "--output", output):
+        return 1
     try:
         recorded = RecordedRun.read(run / "rollouts.parquet")
         paths = pd.read_parquet(run / "best_paths.parquet")
@@ -175,43 +435,86 @@ def _plot(run: Path, output: Path | None) -> int:
     return 0
 
 
-def _replay(run: Path, query: str, output: Path | None) -> int:
+def _replay(run: Path, query: str, output: Path | None, settings: list[str]) -> int:
     import numpy as np
+    import yaml
 
-    from pih.planner import Planner, RecordedRun, recorded_pose, recorded_rollout
+    from pih.config import ConfigError, to_mapping
+    from pih.planner import Planner
     from pih.provenance import record as provenance_record
     from pih.recordings import record_insertion
+    from pih.row_query import select_rows
+    from pih.run_record import RecordedRun, recorded_pose, recorded_rollout
+    from pih.study_config import scene_with
 
     try:
         recorded = RecordedRun.read(run / "rollouts.parquet")
         rollouts, config = recorded.rollouts, recorded.record["config"]
-        rows = rollouts.query(query)
-    except Exception as error:  # noqa: BLE001 - a bad run or query: one clear line
-        first = _first_line(error)
-        print(f"pih replay {run}: {first}", file=sys.stderr)
+        rows = select_rows(rollouts, query)
+        overrides = {}
+        for setting in settings:
+            key, sep, value = setting.partition("=")
+            if not sep or not key.startswith("scene."):
+                raise ConfigError(f"--set {setting!r}: expected scene.<section>.<key>=<value>")
+            overrides[key.removeprefix("scene.")] = yaml.safe_load(value)
+        if "solver.time_step_s" in overrides and "solver.retry_time_step_s" not in overrides:
+            overrides["solver.retry_time_step_s"] = overrides["solver.time_step_s"] / 2
+        scene = scene_with(to_mapping(recorded.scene), overrides, "--set")
+    except Exception as error:  # noqa: BLE001 - a bad run, query or setting: one clear line
+        print(f"pih replay {run}: {_first_line(error)}", file=sys.stderr)
         return 1
     if "weights" not in rollouts or rows.empty:
-        why = "it predates recorded weights" if "weights" not in rollouts else "no row matches"
-        print(f"pih replay {run}: nothing to replay ({why}: {query!r})", file=sys.stderr)
+        if "weights" not in rollouts:
+            why = "it predates recorded weights"
+        else:
+            why = f"no row matches {query!r}; " + ", ".join(
+                f"{c} {rollouts[c].min()}–{rollouts[c].max()}" for c in ("iteration", "rollout")
+            ) + f", phases {', '.join(sorted(rollouts['phase'].unique()))}"
+        print(f"pih replay {run}: nothing to replay ({why})", file=sys.stderr)
         return 1
-    row = rows.iloc[0]
-    scene = recorded.scene
     planner = Planner.from_configs(scene, recorded.planner)
-    start, target, weights, sensed = recorded_rollout(row)
-    trace, _ = planner.evaluate(planner.dmp(start, target), weights, sensed)
-    name = f"replay_{row['phase']}_{row['iteration']}_{row['rollout']}"
-    same = np.array_equal(trace.q_peg_bottom[-1], recorded_pose(row, "final_bottom"))
-    provenance = provenance_record(
-        "replay", config=config, inputs=[run / "rollouts.parquet"], extra={"query": query}
-    )
-    target = output or run / f"{name}.rrd"
-    record_insertion(target, trace, scene, name, provenance)
-    print(
-        f"{target}: {row['phase']} iteration {row['iteration']} rollout {row['rollout']}, "
-        f"{trace.status}; P2 at the end ({', '.join(f'{v:.6g}' for v in trace.q_peg_bottom[-1])})"
-        f" {'= the record' if same else 'DIFFERS from the record'}"
-    )
-    return 0 if same else 1
+    hole, tolerance = planner.scene.hole_pose, recorded.planner.success_tolerance_m
+    differs = 0
+    for index, (_, row) in enumerate(rows.iterrows()):
+        start, target, weights, sensed = recorded_rollout(row)
+        trace, _ = planner.evaluate(planner.dmp(start, target), weights, sensed)
+        replayed = trace.q_peg_bottom[-1]
+        inserted = trace.ok and float(np.hypot(*(replayed[:2] - hole[:2]))) <= tolerance
+        same = np.array_equal(replayed, recorded_pose(row, "final_bottom"))
+        differs += not same
+        if index == 0:
+            name = f"replay_{row['phase']}_{row['iteration']}_{row['rollout']}"
+            extra = {"query": query, "set": overrides}
+            provenance = provenance_record(
+                "replay", config=config, inputs=[run / "rollouts.parquet"], extra=extra
+            )
+            target_file = output or run / f"{name}.rrd"
+            record_insertion(target_file, trace, scene, name, provenance)
+            print(f"# {target_file}: the first row's replay, as a Rerun recording")
+        pose = ",".join(f"{v:.9g}" for v in recorded_pose(row, "final_bottom"))
+        print(
+            f"phase={row['phase']} iteration={row['iteration']} rollout={row['rollout']} "
+            f"recorded_p2={pose} replayed_p2={','.join(f'{v:.9g}' for v in replayed)} "
+            f"recorded_inserted={int(bool(row['success']))} replayed_inserted={int(inserted)} "
+            f"status={trace.status} same={int(same)}"
+        )
+    # Without --set a replay must end where the record says (exit 1 if not); with it, it may not.
+    return 0 if settings or not differs else 1
+
+
+def _compare(old: Path, new: Path, rtol: float) -> int:
+    from pih.published import compare
+
+    try:
+        differences, compared = compare(old, new, rtol)
+    except (OSError, ValueError) as error:
+        print(f"pih compare: {_first_line(error)}", file=sys.stderr)
+        return 1
+    for difference in differences:
+        print(difference)
+    verdict = "reproduced" if not differences else "NOT reproduced"
+    print(f"{len(differences)} of {compared} compared items differ: {new} {verdict} {old}")
+    return 0 if not differences else 1
 
 
 def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers: int) -> int:
@@ -220,9 +523,11 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
     from pih.aggregate import wilson_interval
     from pih.config import ConfigError
     from pih.outputs import write_table
-    from pih.planner import ROLLOUT_COLUMNS, RecordedRun
     from pih.provenance import record as provenance_record
+    from pih.run_record import ROLLOUT_COLUMNS, RecordedRun
 
+    if _missing_parent("redeploy", "--output", output):
+        return 1
     # A run's rollouts.parquet names its run (results/planning/*/rollouts.parquet skips summary/).
     runs = [run.parent if run.name == "rollouts.parquet" else run for run in runs]
     recorded = []
@@ -292,12 +597,28 @@ def _aggregate(paths: list[Path], output_dir: Path, reference_variant: str | Non
     from pih.pooling import SOURCE_COLUMNS, find_outputs, pool
     from pih.provenance import record as provenance_record
 
+    if output_dir.exists() and not output_dir.is_dir():
+        print(f"pih aggregate: --output-dir {output_dir}: not a directory", file=sys.stderr)
+        return 1
     try:
         pooled = pool(*find_outputs(paths))
     except ConfigError as error:
         print(f"pih aggregate: {_first_line(error)}", file=sys.stderr)
         return 1
     keys = pooled.sweep_keys
+    if reference_variant is not None:
+        known = (
+            sorted(map(str, pooled.summaries["variant"].dropna().unique()))
+            if "variant" in keys and "variant" in pooled.summaries
+            else []
+        )
+        if reference_variant not in known:
+            print(
+                f"pih aggregate: --reference-variant {reference_variant!r} is not a variant of "
+                f"these runs ({known or 'they sweep no variant'})",
+                file=sys.stderr,
+            )
+            return 1
     tables = planning_tables(
         pooled.runs, pooled.summaries, pooled.deployments, keys, reference_variant
     )
@@ -347,16 +668,47 @@ def _job(target: str, configfiles: list[str] | None) -> int:
     """Run the rule's script with the ``snakemake`` object Snakemake would give it."""
     import runpy
 
+    from pih.study_config import load_config_file
     from pih.workflow import mock_snakemake
 
+    global _RUNNING_SCRIPT
     try:
+        if not Path("Snakefile").is_file():
+            raise ValueError(f"no Snakefile in {Path.cwd()}; run it in the workflow's directory")
+        for path in configfiles or []:
+            load_config_file(path)  # one line naming a missing, empty or malformed file
         smk, script = mock_snakemake(target, configfiles)
-    except ValueError as error:
-        print(f"pih job: {error}", file=sys.stderr)
+    except ValueError as error:  # a ConfigError too
+        print(f"pih job: {_first_line(error)}", file=sys.stderr)
+        return 1
+    except Exception as error:  # noqa: BLE001 - Snakemake's errors: one line
+        print(f"pih job: {_first_line(error)} ({type(error).__name__})", file=sys.stderr)
+        return 1
+    missing = [str(path) for path in smk.input if not Path(path).exists()]
+    if missing:
+        more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+        print(
+            f"pih job: {target}: {len(missing)} input(s) missing ({', '.join(missing[:3])}{more});"
+            f" make them first with snakemake (pih job runs one script, not its upstream jobs)",
+            file=sys.stderr,
+        )
         return 1
     print(f"pih job: {script.name} for {target} (log: {smk.log[0] if smk.log else 'none'})")
-    runpy.run_path(str(script), init_globals={"snakemake": smk}, run_name="__main__")
+    _RUNNING_SCRIPT = True
+    try:
+        runpy.run_path(str(script), init_globals={"snakemake": smk}, run_name="__main__")
+    finally:
+        _RUNNING_SCRIPT = False
     return 0
+
+
+def _missing_parent(command: str, option: str, output: Path | None) -> bool:
+    """Whether ``output``'s directory is missing (said on stderr): a CLI writes only into an
+    existing directory."""
+    if output is None or output.parent.is_dir():
+        return False
+    print(f"pih {command}: {option} {output}: no directory {output.parent}", file=sys.stderr)
+    return True
 
 
 if __name__ == "__main__":

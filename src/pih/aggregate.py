@@ -17,7 +17,7 @@ import pandas as pd
 
 from pih.config import recorded_config, to_mapping
 from pih.outputs import read_provenance
-from pih.planner import PlannerConfig
+from pih.planner_config import PlannerConfig
 from pih.scene_config import SceneConfig
 from pih.study_config import METHOD_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key, plain
 
@@ -136,7 +136,23 @@ def run_summary(
         "deploy_diverged_fraction": float((deploy["status"] != "ok").mean())
         if len(deploy)
         else math.nan,
+        "deploy_repeats_training": repeats_training(rollouts),
     }
+
+
+def repeats_training(rollouts: pd.DataFrame) -> bool:
+    """Whether every deployment trial only repeated a rollout of training: it ended at exactly
+    the final pose of one of the per-iteration mean rollouts. That happens when the deployed
+    target reads no fresh sensing and the start is training's (our rule, once it has found the
+    hole): such trials cannot fail once the mean inserted, so they measure training, not
+    deployment (the perturbed redeployment can fail)."""
+    pose = ["final_bottom_x_m", "final_bottom_y_m", "final_bottom_theta_rad"]
+    deploy = rollouts.loc[rollouts["phase"] == "deploy", pose]
+    means = rollouts.loc[rollouts["phase"] == "mean", pose]
+    if deploy.empty or means.empty:
+        return False
+    seen = set(map(tuple, means.to_numpy()))
+    return all(tuple(row) in seen for row in deploy.to_numpy())
 
 
 _LEVEL_COLUMNS = {
@@ -197,6 +213,10 @@ SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
     "deploy_diverged_fraction": (
         "1",
         "mean fraction of deployment trials that ended in a simulation failure (not successes)",
+    ),
+    "runs_repeating_training": (
+        "1",
+        "runs whose every deployment trial only repeated a training rollout (cannot fail)",
     ),
 }
 
@@ -456,6 +476,7 @@ def success_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFram
                     "diverged_rollout_fraction": float(runs["diverged_fraction"].mean()),
                     "retried_rollout_fraction": float(runs["retried_fraction"].mean()),
                     "deploy_diverged_fraction": float(runs["deploy_diverged_fraction"].mean()),
+                    "runs_repeating_training": int(runs["deploy_repeats_training"].sum()),
                 }
             )
         return pd.DataFrame(rows)

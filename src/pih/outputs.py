@@ -2,8 +2,9 @@
 
 Units and descriptions live in each field's metadata (``unit``, ``description``); the provenance
 record lives in the schema metadata under ``pih.provenance`` (canonical JSON). Writes go to a
-temporary file in the target directory and are renamed into place, so an interrupted run never
-leaves a half-written Parquet file.
+temporary file outside the output tree (:data:`TEMPORARY_DIR` in the working directory) and are
+renamed into place, so an interrupted run never leaves a half-written file among the outputs,
+whatever signal stops it (:func:`atomic_path`).
 """
 
 from __future__ import annotations
@@ -11,9 +12,13 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
+import signal
+import socket
 import tempfile
+import threading
 from collections.abc import Callable, Iterator, Mapping
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Any
 
@@ -97,21 +102,112 @@ def frame_trace(frame: pd.DataFrame, status: str = "ok", reason: str = "") -> Tr
     return Trace(**arrays, status=status, reason=reason)  # type: ignore[arg-type]
 
 
+TEMPORARY_DIR = ".pih-tmp"
+"""Directory in the working directory (the workflow's) where outputs below it are written before
+they are renamed into place: outside ``results/``, so no signal leaves a file among the outputs.
+A SIGTERM or SIGHUP during a write removes its temporary files; a file left by SIGKILL is
+removed by the next write on the same host. Outputs outside the working directory, or on another
+file system, get their temporary file beside them (hidden, cleaned up the same way)."""
+
+_HOST = re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname()) or "host"
+# .<target name>.<host>@<pid>.<random>.tmp (or another suffix: write_with's second file).
+_OWNER = re.compile(r"\.(?P<host>[A-Za-z0-9-]+)@(?P<pid>[0-9]+)\.[A-Za-z0-9_]+(\.[^.]*)?$")
+
+
 @contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; rename it over ``path`` only on success."""
+    """Yield a temporary path (in :data:`TEMPORARY_DIR` when ``path`` is below the working
+    directory); rename it over ``path`` only on success. A SIGTERM or SIGHUP meanwhile removes
+    it before the process ends by that signal."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    folder = temporary_dir(path)
+    _remove_stale(folder)
+    fd, tmp = tempfile.mkstemp(
+        prefix=f".{path.name}.{_HOST}@{os.getpid()}.", suffix=".tmp", dir=folder
+    )
     os.close(fd)
     try:
-        yield Path(tmp)
-        # mkstemp creates 0600; give the output the mode any file the user writes gets.
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
+        with removed_on_signal(Path(tmp)):
+            yield Path(tmp)
+            # mkstemp creates 0600; give the output the mode any file the user writes gets.
+            os.chmod(tmp, 0o666 & ~_umask())
+            os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def temporary_dir(path: Path) -> Path:
+    """Where :func:`atomic_path` writes ``path`` first: :data:`TEMPORARY_DIR` in the working
+    directory if ``path`` is below it and on the same file system (``os.replace`` cannot cross
+    file systems), else ``path``'s own directory."""
+    parent, work = path.parent.resolve(), Path.cwd().resolve()
+    if parent.is_relative_to(work):
+        folder = work / TEMPORARY_DIR
+        with suppress(OSError):
+            folder.mkdir(exist_ok=True)
+            if folder.stat().st_dev == parent.stat().st_dev:
+                return folder
+    return parent
+
+
+def _remove_stale(folder: Path) -> None:
+    """Remove the temporary files of writes killed on this host (their process is gone)."""
+    with suppress(OSError):
+        for entry in os.scandir(folder):
+            owner = _OWNER.search(entry.name)
+            if not entry.name.startswith(".") or owner is None or owner["host"] != _HOST:
+                continue
+            pid = int(owner["pid"])
+            if pid == os.getpid():
+                continue
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                with suppress(OSError):
+                    os.unlink(entry.path)
+            except OSError:
+                pass  # alive (another user's) or unknown: leave it
+
+
+_LIVE: dict[Path, None] = {}  # temporary files being written (an ordered set)
+_SAVED_HANDLERS: dict[int, Any] = {}
+_CLEANUP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+
+
+@contextmanager
+def removed_on_signal(*paths: Path) -> Iterator[None]:
+    """Within this block a SIGTERM or SIGHUP (SLURM's time limit and ``scancel`` send SIGTERM)
+    removes ``paths`` and then ends the process by that signal as before. Only where the signal
+    has its default action (not ignored, no other handler), and only in the main thread (Python
+    runs handlers there): elsewhere the paths are still removed if the main thread is writing."""
+    main = threading.current_thread() is threading.main_thread()
+    installed = False
+    if main and not _SAVED_HANDLERS:
+        for number in _CLEANUP_SIGNALS:
+            if signal.getsignal(number) is signal.SIG_DFL:
+                _SAVED_HANDLERS[number] = signal.signal(number, _remove_live_and_die)
+        installed = True
+    for path in paths:
+        _LIVE[path] = None
+    try:
+        yield
+    finally:
+        for path in paths:
+            _LIVE.pop(path, None)
+        if installed:
+            for number, handler in _SAVED_HANDLERS.items():
+                signal.signal(number, handler)
+            _SAVED_HANDLERS.clear()
+
+
+def _remove_live_and_die(number: int, frame: Any) -> None:
+    for path in list(_LIVE):
+        with suppress(OSError):
+            os.unlink(path)
+    signal.signal(number, signal.SIG_DFL)
+    os.kill(os.getpid(), number)
 
 
 def _umask() -> int:
@@ -291,7 +387,8 @@ def write_with(path: str | Path, writer: Callable[[Path], None]) -> None:
         # Keep the real suffix: matplotlib and rerun pick the format from it.
         target = tmp.with_suffix(path.suffix)
         try:
-            writer(target)
+            with removed_on_signal(target):
+                writer(target)
             os.replace(target, tmp)
         finally:
             if target.exists():

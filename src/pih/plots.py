@@ -79,7 +79,10 @@ def validation_curves(
     range), and the phase markers."""
     offsets = sorted(theory)
     label, title = QUANTITIES[quantity]
-    fig, axes = plt.subplots(1, len(offsets), figsize=(4.2 * len(offsets), 3.6), squeeze=False)
+    fig, axes = plt.subplots(
+        1, len(offsets), figsize=(4.2 * len(offsets), 4.0), squeeze=False, layout="constrained"
+    )
+    phases = []  # per panel, the (depth in mm, name) of the phase markers it shows
     for ax, offset in zip(axes[0], offsets):
         curve = theory[offset]
         ax.plot(1e3 * curve["depth_m"], curve[quantity], color="black", lw=1.5, label="Whitney")
@@ -98,30 +101,59 @@ def validation_curves(
             for name, depth in markers[offset].items()
             if shown[0] <= depth <= shown[1]
         )
-        for k, (depth, name) in enumerate(shown_markers):
+        for depth, _ in shown_markers:
             ax.axvline(1e3 * depth, color="grey", lw=0.6, ls=":")
-            # Phases can start within a millimetre of each other: stagger the labels in height.
-            ax.annotate(
-                name,
-                (1e3 * depth, 0.97 - 0.08 * (k % 3)),
-                xycoords=("data", "axes fraction"),
-                xytext=(2, 0),
-                textcoords="offset points",
-                fontsize=7,
-                va="top",
-                ha="left",
-                color="dimgrey",
-            )
-        ax.set_title(
-            f"$\\epsilon_0$ = {1e3 * offset:g} mm ($x_P$ = {-1e3 * offset:g} mm)", fontsize=9
-        )
+        phases.append([(1e3 * depth, name) for depth, name in shown_markers])
         ax.set_xlabel("insertion depth $\\ell$ (mm, aligned)")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
-    axes[0][0].legend(fontsize=7)
+    # Below the panels, so it never covers a curve (Fig. 4's asymptote at -1 N).
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="outside lower center", ncol=len(labels))
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
+    fig.draw_without_rendering()  # lay out first: the phase names are placed at the final width
+    for ax, offset, shown_phases in zip(axes[0], offsets, phases):
+        rows = _phase_labels(ax, shown_phases)
+        ax.set_title(
+            f"$\\epsilon_0$ = {1e3 * offset:g} mm ($x_P$ = {-1e3 * offset:g} mm)",
+            fontsize=9,
+            pad=6 + PHASE_ROW_PT * rows,
+        )
     return fig
+
+
+PHASE_ROW_PT = 9.0  # height of one row of phase labels above a panel, in points
+
+
+def _phase_labels(ax: plt.Axes, markers: list[tuple[float, str]]) -> int:
+    """Write each phase marker's name above the panel, centred on its line, in the first row
+    where it overlaps no other name (phases can start within a millimetre of each other), so
+    names collide neither with each other nor with the curves. Returns the rows used."""
+    renderer = ax.figure.canvas.get_renderer()
+    lo, hi = ax.get_xlim()
+    width_pt = ax.get_window_extent(renderer).width * 72 / ax.figure.dpi
+    ends: list[float] = []  # per row, the right end (points from the left spine) of its last name
+    for x, name in markers:
+        text = ax.annotate(
+            name,
+            (x, 1.0),
+            xycoords=("data", "axes fraction"),
+            xytext=(0, 2),
+            textcoords="offset points",
+            fontsize=7,
+            va="bottom",
+            ha="center",
+            color="dimgrey",
+            annotation_clip=False,
+        )
+        half = text.get_window_extent(renderer).width * 36 / ax.figure.dpi + 2
+        centre = (x - lo) / (hi - lo) * width_pt
+        row = next((k for k, end in enumerate(ends) if centre - half > end), len(ends))
+        if row == len(ends):
+            ends.append(0.0)
+        ends[row] = centre + half
+        text.xyann = (0, 2 + PHASE_ROW_PT * row)
+    return len(ends)
 
 
 def force_scatter(aligned: Mapping[tuple[str, float], pd.DataFrame]) -> plt.Figure:
@@ -142,12 +174,13 @@ def force_scatter(aligned: Mapping[tuple[str, float], pd.DataFrame]) -> plt.Figu
                 label=f"{variant}, $\\epsilon_0$ = {1e3 * offset:g} mm",
             )
         lo, hi = ax.get_xlim()
-        ax.plot([lo, hi], [lo, hi], color="black", lw=0.8)
+        ax.plot([lo, hi], [lo, hi], color="black", lw=0.8, label="$y = x$ (simulation = theory)")
         name = QUANTITIES[quantity][0]
         ax.set_xlabel(f"Whitney {name}")
         ax.set_ylabel(f"simulated {name}")
         ax.grid(alpha=0.3)
-    axes[1].legend(fontsize=6, markerscale=4)
+        # Above the diagonal's left end, where agreeing points are not.
+        ax.legend(fontsize=6, markerscale=4, loc="upper left")
     fig.suptitle(
         "Simulated vs theoretical contact force at the same aligned depth (paper Fig. 5)",
         fontsize=10,
@@ -156,22 +189,55 @@ def force_scatter(aligned: Mapping[tuple[str, float], pd.DataFrame]) -> plt.Figu
     return fig
 
 
+BAND_STYLES = [  # Fig. 9's groups: line style, marker and band hatching, besides colour
+    {"ls": "-", "marker": "o", "hatch": "////"},
+    {"ls": "--", "marker": "s", "hatch": "\\\\\\\\"},
+    {"ls": "-.", "marker": "^", "hatch": "||"},
+    {"ls": ":", "marker": "D", "hatch": "--"},
+    {"ls": (0, (5, 1)), "marker": "v", "hatch": "xx"},
+]
+
+
 def cost_band_figure(bands: pd.DataFrame, group: str = "method") -> plt.Figure:
     """Mean ± one standard deviation of the best inner cost per iteration (paper Fig. 9)."""
     fig, ax = plt.subplots(figsize=(6.5, 4))
-    for level, part in bands.groupby(group):
+    for k, (level, part) in enumerate(bands.groupby(group)):
         part = part.sort_values("iteration")
         mean, std = part["mean"].to_numpy(), np.nan_to_num(part["std"].to_numpy())
+        style = BAND_STYLES[k % len(BAND_STYLES)]
         line = ax.plot(
-            part["iteration"], mean, label=f"{group} = {level} (n = {int(part['count'].max())})"
+            part["iteration"],
+            mean,
+            ls=style["ls"],
+            marker=style["marker"],
+            ms=3,
+            zorder=3,
+            label=f"{group} = {level} (n = {int(part['count'].max())})",
         )[0]
+        # Bands overlap: each is light, hatched its own way and edged, so none hides another.
+        low, high = np.maximum(mean - std, 1e-12), mean + std
         ax.fill_between(
             part["iteration"],
-            np.maximum(mean - std, 1e-12),
-            mean + std,
-            color=line.get_color(),
-            alpha=0.25,
+            low,
+            high,
+            facecolor=line.get_color(),
+            alpha=0.12,
+            lw=0,
+            zorder=1,
         )
+        ax.fill_between(
+            part["iteration"],
+            low,
+            high,
+            facecolor="none",
+            edgecolor=line.get_color(),
+            hatch=style["hatch"],
+            alpha=0.5,
+            lw=0,
+            zorder=2,
+        )
+        for edge in (np.where(mean - std > 0, low, np.nan), high):
+            ax.plot(part["iteration"], edge, color=line.get_color(), lw=0.6, ls=style["ls"])
     if (bands["mean"] > 0).any():
         ax.set_yscale("log")
     else:
@@ -191,27 +257,43 @@ def cost_band_figure(bands: pd.DataFrame, group: str = "method") -> plt.Figure:
     return fig
 
 
+METHOD_MARKERS = "osD^vP*X"  # deployment figure: one marker per method, besides its colour
+
+
 def deploy_success_figure(table: pd.DataFrame) -> plt.Figure:
-    """Deployment success with its 95 % interval over runs, per method (colour) and per level of
-    every sweep dimension (rows); hollow beneath it, the final mean's where it was deployed too."""
+    """Deployment success with its 95 % interval over runs: under a bold heading per level of
+    every sweep dimension (``all runs`` first), one row per method, named with its run count and
+    drawn in its own colour and marker; hollow beneath it, the final mean's where it was deployed
+    too and differs."""
     groups = list(dict.fromkeys(zip(table["dimension"], table["level"])))
     methods = sorted(table["method"].unique())
-    fig, ax = plt.subplots(figsize=(7, 0.45 * len(groups) * len(methods) + 2.2))
+    rows = sum(
+        1 + table[(table["dimension"] == d) & (table["level"] == v)].shape[0] for d, v in groups
+    )
+    fig, ax = plt.subplots(figsize=(8, 0.32 * rows + 1.4))
     colours = plt.get_cmap("tab10")
-    y = 0
-    ticks, labels = [], []
+    y = 0.0
+    ticks, labels, headings = [], [], []
+    shown: set[str] = set()
     for dimension, level in groups:
         part = table[(table["dimension"] == dimension) & (table["level"] == level)]
+        ticks.append(y)
+        labels.append(
+            "all runs" if dimension == "all" else f"{dimension.rsplit('.', 1)[-1]} = {level}"
+        )
+        headings.append(len(labels) - 1)
+        y -= 1
         for m, method in enumerate(methods):
             row = part[part["method"] == method]
             if row.empty:
                 continue
             row = row.iloc[0]
-            first = (dimension, level) == groups[0]
+            marker = METHOD_MARKERS[m % len(METHOD_MARKERS)]
             for prefix, offset, face in (("", 0.0, colours(m)), ("final_mean_", -0.3, "white")):
                 rate = row.get(f"{prefix}deploy_success_rate", np.nan)
                 if not np.isfinite(rate) or (prefix and row["deploy_success_rate"] == rate):
                     continue
+                name = f"{method}, final mean" if prefix else method
                 ax.errorbar(
                     rate,
                     y + offset,
@@ -219,28 +301,31 @@ def deploy_success_figure(table: pd.DataFrame) -> plt.Figure:
                         [rate - row[f"{prefix}deploy_ci_low"]],
                         [row[f"{prefix}deploy_ci_high"] - rate],
                     ],
-                    fmt="o",
+                    fmt=marker,
                     color=colours(m),
                     mfc=face,
+                    ms=6,
                     lw=1.0 if not prefix else 0.6,
                     capsize=3,
-                    label=(f"{method}, final mean" if prefix else method) if first else None,
+                    label=None if name in shown else name,
                 )
+                shown.add(name)
             ticks.append(y)
-            name = "all runs" if dimension == "all" else f"{dimension.rsplit('.', 1)[-1]} = {level}"
-            labels.append(f"{name} (n = {int(row['runs'])})")
+            labels.append(f"{method} (n = {int(row['runs'])} runs)")
             y -= 1
-        y -= 0.5
+        y -= 0.3
     ax.set_yticks(ticks, labels, fontsize=7)
+    for k in headings:
+        ax.get_yticklabels()[k].set_fontweight("bold")
+    ax.set_ylim(y + 0.6, 0.6)
     ax.set_xlim(-0.02, 1.02)
     ax.set_xlabel(
         "deployment success rate (fraction of trials that inserted; 95 % interval over runs)"
     )
     ax.grid(alpha=0.3, axis="x")
     ax.set_title("Would the learned policy insert if deployed? (beyond the paper)", fontsize=9)
-    fig.legend(*ax.get_legend_handles_labels(), fontsize=7, loc="lower center", ncol=2)
-    legend_in = 0.15 + 0.17 * len(methods)  # its rows (two entries per method, two columns)
-    fig.tight_layout(rect=(0, legend_in / fig.get_figheight(), 1, 1))
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    fig.tight_layout()
     return fig
 
 
@@ -249,33 +334,39 @@ def run_figure(
 ) -> plt.Figure:
     """One planning run: best J_inn per iteration (and the mean weights' J_inn where evaluated),
     the goal's true distance from the hole, and the best peg-tip paths (darker = later), with the
-    deployment outcome in the title."""
+    deployment outcome in the title. Every panel is titled, iterations are whole numbers and a
+    legend names only what is drawn."""
     best = best_training_rows(rollouts)
     deploy = rollouts[rollouts["phase"] == "deploy"]
-    fig, (cost_ax, goal_ax, path_ax) = plt.subplots(1, 3, figsize=(14, 4))
+    fig, (cost_ax, goal_ax, path_ax) = plt.subplots(1, 3, figsize=(14, 4.2))
     cost_ax.plot(best["iteration"], best["cost"], marker=".", label="best rollout")
     means = rollouts[rollouts["phase"] == "mean"]
     if len(means):  # deploy_policy last_inserted_mean: the mean weights' own rollout
         inserted = means[means["success"]]
         cost_ax.plot(means["iteration"], means["cost"], color="tab:orange", lw=0.8, label="mean")
-        cost_ax.plot(
-            inserted["iteration"],
-            inserted["cost"],
-            "o",
-            color="tab:orange",
-            ms=3,
-            label="mean inserted",
-        )
-        cost_ax.legend(fontsize=8)
-    if (best["cost"] > 0).any():
+        if len(inserted):
+            cost_ax.plot(
+                inserted["iteration"],
+                inserted["cost"],
+                "o",
+                color="tab:orange",
+                ms=3,
+                label="mean inserted",
+            )
+    cost_ax.legend(fontsize=8)
+    if (rollouts["cost"] > 0).any():
         cost_ax.set_yscale("log")
-    cost_ax.set_xlabel("iteration")
-    cost_ax.set_ylabel("best inner cost $J_{inn}$ (eq. 11)")
-    goal_ax.plot(best["iteration"], 1e3 * best["target_hole_error_m"], marker=".")
+    cost_ax.set_title("(a) inner cost per iteration", fontsize=9)
+    cost_ax.set_ylabel("inner cost $J_{inn}$ (eq. 11, dimensionless)")
+    goal_ax.plot(best["iteration"], 1e3 * best["target_hole_error_m"], marker=".", label="goal")
     goal_ax.axhline(1.0, color="grey", ls=":", label="1 mm")
-    goal_ax.set_xlabel("iteration")
-    goal_ax.set_ylabel("goal's true distance from the hole (mm)")
+    goal_ax.set_title("(b) the best rollout's goal: distance from the true hole", fontsize=9)
+    goal_ax.set_ylabel("distance from the hole (mm)")
+    goal_ax.set_ylim(bottom=0)
     goal_ax.legend(fontsize=8)
+    for ax in (cost_ax, goal_ax):
+        ax.set_xlabel("iteration")
+        ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
     iterations = sorted(best_paths["iteration"].unique())
     for wall in hole_outline(hole):
         path_ax.plot(1e3 * wall[:, 0], 1e3 * wall[:, 1], color="tab:brown", lw=1)
@@ -283,15 +374,20 @@ def run_figure(
         part = best_paths[best_paths["iteration"] == iteration]
         shade = plt.get_cmap("Greys")(0.25 + 0.75 * k / max(1, len(iterations) - 1))
         path_ax.plot(
-            1e3 * part["peg_bottom_x_m"], 1e3 * part["peg_bottom_y_m"], color=shade, lw=0.8
+            1e3 * part["peg_bottom_x_m"],
+            1e3 * part["peg_bottom_y_m"],
+            color=shade,
+            lw=0.8,
+            label="best peg-tip P2 paths" if k == len(iterations) - 1 else None,
         )
-    path_ax.plot(1e3 * hole.x_m, 1e3 * hole.y_m, "k+", ms=10, label="hole H")
+    path_ax.plot(1e3 * hole.x_m, 1e3 * hole.y_m, "r+", ms=10, label="true hole H")
+    path_ax.set_title("(c) best paths, iteration 1 light to the last dark", fontsize=9)
     path_ax.set_aspect("equal")
     path_ax.set_xlim(-45, 20)
     path_ax.set_ylim(-15, 15)
     path_ax.set_xlabel("x (mm)")
     path_ax.set_ylabel("y (mm)")
-    path_ax.legend(fontsize=8)
+    path_ax.legend(fontsize=7, loc="upper right")
     for ax in (cost_ax, goal_ax, path_ax):
         ax.grid(alpha=0.3)
     outcome = f"deployment {deploy['success'].mean():.0%} of {len(deploy)}" if len(deploy) else ""
@@ -309,7 +405,9 @@ def best_paths_figure(
     """Best peg-tip (a) and robot (b) paths of every iteration, shaded by iteration, with the
     true hole and each iteration's goal (``goals``: the best rollouts' rows with iteration,
     target_x/y_m, the peg-tip target, and goal_x/y_m, the robot's DMP goal) (paper Fig. 8)."""
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8), sharex=True, sharey=True)
+    fig, axes = plt.subplots(
+        1, 2, figsize=(11, 3.4), sharex=True, sharey=True, layout="constrained"
+    )
     iterations = sorted(best_paths["iteration"].unique())
     cmap = plt.get_cmap("viridis")
     norm = matplotlib.colors.Normalize(min(iterations, default=1), max(iterations, default=1))
@@ -365,5 +463,9 @@ def best_paths_figure(
         shrink=0.8,
         ticks=matplotlib.ticker.MaxNLocator(integer=True),
     )
-    fig.suptitle(f"Best paths per iteration (paper Fig. 8): {title}", fontsize=9)
+    suptitle = fig.suptitle(f"Best paths per iteration (paper Fig. 8): {title}", fontsize=9)
+    # Centred over the two panels, not over the panels and the colour bar.
+    fig.draw_without_rendering()
+    left, right = axes[0].get_position().x0, axes[1].get_position().x1
+    suptitle.set_x((left + right) / 2)
     return fig

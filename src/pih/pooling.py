@@ -20,7 +20,7 @@ import pandas as pd
 from pih.aggregate import run_tables, split_keys, variant
 from pih.config import ConfigError, recorded_config, to_mapping
 from pih.outputs import read_provenance
-from pih.planner import OuterConfig, PlannerConfig, replace
+from pih.planner_config import OuterConfig, PlannerConfig, replace
 from pih.provenance import canonical_json, input_sha256
 from pih.scene_config import SceneConfig
 from pih.study_config import METHOD_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key

@@ -22,7 +22,7 @@ from typing import Any
 
 SCHEMA_VERSION = 1
 PROVENANCE_KEY = b"pih.provenance"
-VOLATILE_KEYS = ("created_utc", "host", "code_version")
+VOLATILE_KEYS = ("created_utc", "host", "code_version", "allocator")
 PACKAGES = ("drake", "numpy", "pandas", "pyarrow", "rerun-sdk", "snakemake", "cma", "matplotlib")
 LIBRARY_ROOT = Path(__file__).resolve().parent
 
@@ -111,6 +111,50 @@ def script_library_hash(script: str | Path) -> str:
     return digest.hexdigest()
 
 
+# The modules whose code decides a planning rollout's numbers (scene, contact, DMP, optimizer,
+# planner config, costs, outer level, Algorithm 1, and the run record, which judges success and
+# the convergence stop). A published planning run is stale when their hash no longer matches its
+# record (tests/test_published.py); bookkeeping modules (outputs, provenance, config checks) are not
+# in it.
+ROLLOUT_MODULES = (
+    "scene_config",
+    "scene",
+    "frames",
+    "whitney",
+    "dmp",
+    "optimizers",
+    "planner_config",
+    "costs",
+    "outer",
+    "run_record",
+    "planner",
+)
+
+
+@functools.cache
+def rollout_code_hash() -> str:
+    """sha256 over :data:`ROLLOUT_MODULES` (names and contents)."""
+    digest = hashlib.sha256()
+    for name in ROLLOUT_MODULES:
+        digest.update(name.encode())
+        digest.update((LIBRARY_ROOT / f"{name}.py").read_bytes())
+    return digest.hexdigest()
+
+
+def allocator() -> str:
+    """The malloc this process runs with: a preloaded library's file name (the workflow preloads
+    tcmalloc or jemalloc when installed, docs/simulation.md), else "glibc"."""
+    try:
+        maps = Path("/proc/self/maps").read_text()
+    except OSError:
+        return "unknown"
+    for name in ("tcmalloc", "jemalloc"):
+        for line in maps.splitlines():
+            if name in line and ".so" in line:
+                return Path(line.split()[-1]).name
+    return "glibc"
+
+
 @functools.cache
 def library_hash() -> str:
     """sha256 over the source files of the ``pih`` package (names and contents, sorted)."""
@@ -180,6 +224,8 @@ def record(
         "inputs": {str(p): input_sha256(p) for p in inputs},
         "code_version": code_version(),
         "library_sha256": library_hash(),
+        "rollout_code_sha256": rollout_code_hash(),
+        "allocator": allocator(),
         "packages": package_versions(),
         "simulator": dict(simulator or {}),
         "python": sys.version.split()[0],

@@ -30,6 +30,12 @@ APPLICATION_ID = "pih"
 SPATIAL_PERIOD_S = 0.02  # spatial entities are logged at 50 Hz; scalar series at every step
 ROBOT_AXIS_M = 0.005  # the robot frame is drawn as its y axis (the peg's axis at rest), 5 mm long
 FORCE_ARROW_M_PER_N = 1e-3  # force arrows: 1 mm per newton
+# Entities whose own labels would stack on others (the spring's on the robot frame's, the best
+# paths', goal's and sensed hole's at the hole bottom) are named in a legend instead: coloured
+# points with labels in a column right of the hole, LEGEND_X_M from its axis, LEGEND_STEP_M apart.
+LEGEND_X_M = 0.035
+LEGEND_TOP_M = 0.04
+LEGEND_STEP_M = 0.008
 # The scene's entities live under SCENE, which is drawn through a y-flip: Rerun's 2-D view draws
 # y downward and ignores view coordinates (rerun-io/rerun#1387), the paper's frame is y-up. The
 # logged values stay the paper's world coordinates (hovering shows them).
@@ -42,7 +48,7 @@ COLORS = {
     "contact": (40, 120, 230),
     "sensed_hole": (200, 40, 200),
     "goal": (40, 180, 60),
-    "true_hole": (255, 255, 255),
+    "true_hole": (0, 170, 170),  # not white: Rerun draws labels in their colour on light grey
 }
 # Time series: one colour per series, contact and spring forces in Whitney's convention.
 SERIES = {
@@ -78,13 +84,29 @@ def _open(
     return rec
 
 
-def _log_scene(rec: rr.RecordingStream, scene: SceneConfig) -> None:
+def _log_scene(
+    rec: rr.RecordingStream, scene: SceneConfig, legend: Mapping[str, str] | None = None
+) -> None:
+    """The y-flip, the hole, and a legend (label → colour name) of the entities drawn unlabelled."""
     rec.log(SCENE, rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)
     rec.log(
         f"{SCENE}/hole",
         rr.LineStrips2D(hole_outline(scene.hole), colors=[COLORS["hole"]], labels=["hole", "hole"]),
         static=True,
     )
+    if legend:
+        x = scene.hole.x_m + LEGEND_X_M
+        rec.log(
+            f"{SCENE}/legend",
+            rr.Points2D(
+                [[x, LEGEND_TOP_M - k * LEGEND_STEP_M] for k in range(len(legend))],
+                radii=0.0008,
+                colors=[COLORS[color] for color in legend.values()],
+                labels=list(legend),
+                show_labels=True,
+            ),
+            static=True,
+        )
 
 
 def _log_peg(
@@ -115,8 +137,32 @@ def _log_peg(
     )
     rec.log(
         f"{SCENE}/spring",
-        rr.LineStrips2D([[q_robot[:2], q_top[:2]]], colors=[COLORS["spring"]], labels=["spring"]),
+        rr.LineStrips2D(
+            [[q_robot[:2], q_top[:2]]],
+            colors=[COLORS["spring"]],
+            labels=["spring"],
+            show_labels=False,  # R and P1 nearly coincide: named in the legend, not on R's label
+        ),
     )
+
+
+DEPTH_ENTITY = "depth/insertion_depth_mm"  # in mm: Rerun's plot labels metres' ticks as "0"
+
+
+def _padded_range(values: NDArray[np.float64]) -> tuple[float, float]:
+    """A plot range around the finite values, 5 % wider on each side (never empty)."""
+    finite = values[np.isfinite(values)]
+    if not len(finite):
+        return (0.0, 1.0)
+    low, high = float(finite.min()), float(finite.max())
+    pad = max(0.05 * (high - low), 0.5)
+    return (low - pad, high + pad)
+
+
+def _time_panel(timeline: str) -> rrb.TimePanel:
+    """Open a recording paused at the start of ``timeline`` (Rerun otherwise follows a file to
+    its end); looping, so that play runs it again and again."""
+    return rrb.TimePanel(timeline=timeline, play_state="paused", loop_mode="all")
 
 
 def _series_styles(rec: rr.RecordingStream, entity: str, names: list[str]) -> None:
@@ -130,7 +176,8 @@ def record_insertion(
 ) -> None:
     """Validation insertion: peg, hole, robot frame, spring and contact-force arrow (y up); the
     contact and spring forces in Whitney's convention (F_x toward the error side, F_z the
-    push-back) and the insertion depth ℓ against simulated time."""
+    push-back) and the insertion depth ℓ (mm) against simulated time. Opens paused at its start."""
+    depth_mm = 1e3 * np.asarray(trace.insertion_depth_m, dtype=float)
     blueprint = rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial2DView(name="scene (y up)", origin="world"),
@@ -138,9 +185,14 @@ def record_insertion(
                 rrb.TimeSeriesView(
                     name="forces on the peg (N), Whitney's convention", origin="forces"
                 ),
-                rrb.TimeSeriesView(name="insertion depth ℓ (m)", origin="depth"),
+                rrb.TimeSeriesView(
+                    name="insertion depth ℓ (mm)",
+                    origin="depth",
+                    axis_y=rrb.ScalarAxis(range=_padded_range(depth_mm)),
+                ),
             ),
-        )
+        ),
+        _time_panel("sim_time"),
     )
     side = error_side(trace, scene.hole.x_m)
     series = {
@@ -152,17 +204,20 @@ def record_insertion(
 
     def write(target: Path) -> None:
         with _open(run_id, target, blueprint, provenance) as rec:
-            _log_scene(rec, scene)
+            _log_scene(rec, scene, {"spring R–P1": "spring"})
             _series_styles(rec, "forces", list(series))
             times = rr.TimeColumn("sim_time", duration=trace.time_s)
             for name, values in series.items():
                 rec.send_columns(
                     f"forces/{name}", indexes=[times], columns=rr.Scalars.columns(scalars=values)
                 )
+            rec.log(
+                DEPTH_ENTITY,
+                rr.SeriesLines(colors=[(40, 120, 230)], names=["insertion depth ℓ (mm)"]),
+                static=True,
+            )
             rec.send_columns(
-                "depth/l",
-                indexes=[times],
-                columns=rr.Scalars.columns(scalars=trace.insertion_depth_m),
+                DEPTH_ENTITY, indexes=[times], columns=rr.Scalars.columns(scalars=depth_mm)
             )
             step = float(np.median(np.diff(trace.time_s))) if len(trace) > 1 else SPATIAL_PERIOD_S
             every = max(1, round(SPATIAL_PERIOD_S / step))
@@ -192,12 +247,15 @@ def record_planning(
 ) -> None:
     """Planning run. Timeline ``iteration``: each iteration's best peg-tip and robot paths, the
     sensed hole and the goal (peg-tip target), and the best J_inn. Timeline ``playback``: the peg animated
-    along every iteration's best rollout in turn (iteration i starts at (i − 1) × rollout time)."""
+    along every iteration's best rollout in turn (iteration i starts at (i − 1) × rollout time);
+    the recording opens paused at its start. A legend names what ends at the hole bottom."""
     blueprint = rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial2DView(name="paths (y up)", origin="world"),
-            rrb.TimeSeriesView(name="best inner cost J_inn", origin="cost"),
-        )
+            rrb.TimeSeriesView(name="best inner cost J_inn (dimensionless)", origin="cost"),
+            column_shares=[2, 1],
+        ),
+        _time_panel("playback"),
     )
     best = rollouts[rollouts["is_best"]].set_index("iteration")
     rollout_s = float(best_paths["time_s"].max()) if len(best_paths) else 0.0
@@ -207,7 +265,7 @@ def record_planning(
 
     def write(target: Path) -> None:
         with _open(run_id, target, blueprint, provenance) as rec:
-            _log_scene(rec, scene)
+            _log_scene(rec, scene, PLANNING_LEGEND)
             rec.log(
                 f"{SCENE}/true_hole",
                 rr.Points2D(
@@ -247,6 +305,16 @@ def record_planning(
     write_with(path, write)
 
 
+# The planning recording's legend: the entities at the hole bottom, drawn without their labels.
+PLANNING_LEGEND = {
+    "best rollout: peg tip P2": "contact",
+    "best rollout: robot frame R": "robot",
+    "goal (peg-tip target)": "goal",
+    "sensed hole": "sensed_hole",
+    "spring R–P1": "spring",
+}
+
+
 def _log_iteration(rec: rr.RecordingStream, row: pd.Series, path_rows: pd.DataFrame) -> None:
     """One iteration's best paths, sensed hole and goal (the peg-tip target of the DMP goal)."""
     rec.log(
@@ -255,6 +323,7 @@ def _log_iteration(rec: rr.RecordingStream, row: pd.Series, path_rows: pd.DataFr
             [path_rows[["peg_bottom_x_m", "peg_bottom_y_m"]].to_numpy()],
             colors=[COLORS["contact"]],
             labels=["best rollout: peg tip P2"],
+            show_labels=False,
         ),
     )
     rec.log(
@@ -263,6 +332,7 @@ def _log_iteration(rec: rr.RecordingStream, row: pd.Series, path_rows: pd.DataFr
             [path_rows[["robot_x_m", "robot_y_m"]].to_numpy()],
             colors=[COLORS["robot"]],
             labels=["best rollout: robot frame R"],
+            show_labels=False,
         ),
     )
     rec.log(
@@ -272,6 +342,7 @@ def _log_iteration(rec: rr.RecordingStream, row: pd.Series, path_rows: pd.DataFr
             radii=0.0008,
             colors=[COLORS["sensed_hole"]],
             labels=["sensed hole"],
+            show_labels=False,
         ),
     )
     rec.log(
@@ -281,6 +352,7 @@ def _log_iteration(rec: rr.RecordingStream, row: pd.Series, path_rows: pd.DataFr
             radii=0.0008,
             colors=[COLORS["goal"]],
             labels=["goal (peg-tip target)"],
+            show_labels=False,
         ),
     )
 

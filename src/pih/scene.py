@@ -185,6 +185,7 @@ class PegInHoleScene:
             discrete_contact_approximation=cfg.solver.discrete_contact_approximation,
             contact_model=cfg.solver.contact_model,
             stiction_tolerance=cfg.solver.stiction_tolerance_m_per_s,
+            use_sampled_output_ports=cfg.solver.sampled_output_ports,
         )
         plant, _ = AddMultibodyPlant(plant_config, builder)
         plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, 0.0])

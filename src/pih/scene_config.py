@@ -156,14 +156,14 @@ DiscreteApproximation = Literal["tamsi", "sap", "similar", "lagged"]
 
 @dataclass(frozen=True)
 class SolverConfig:
-    # The explicit spring diverges at 2.5 ms (docs/simulation.md). 2 ms with TAMSI gave the same
-    # final depth as 0.5 and 1 ms (to 0.01 mm) at 200 GPa, 2.5–4× faster.
-    time_step_s: float = 2.0e-3
-    # A check interval that diverges at time_step_s (e.g. TAMSI not converging as a tilted peg
-    # lands) is run once more at this finer step from its start state, sampled at time_step_s,
-    # and the rollout goes on at time_step_s; 0: no retry. 1 ms ran 7 of 7 captured TAMSI
-    # failures through (docs/simulation.md).
-    retry_time_step_s: float = 1.0e-3
+    # The coarsest step whose insertion outcomes agree with half of it on a recorded set of
+    # planning rollouts (benchmarks/step_convergence.py): at 1 ms and 2 ms pegs that jam at the
+    # chamfer at finer steps slide in (docs/simulation.md). The explicit spring diverges at 2.5 ms.
+    time_step_s: float = 5.0e-4
+    # A check interval that diverges at time_step_s (an overlap above the limit as a tilted peg
+    # snaps off the chamfer edge) is run once more at this finer step from its start state,
+    # sampled at time_step_s, and the rollout goes on at time_step_s; 0: no retry.
+    retry_time_step_s: float = 2.5e-4
     # `lagged`, one Drake keeps (it deprecates TAMSI): it gets every validation offset through
     # with the best agreement, and ran 295 planning rollouts with no failure (docs/simulation.md).
     discrete_contact_approximation: DiscreteApproximation = "lagged"
@@ -185,6 +185,11 @@ class SolverConfig:
     check_interval_s: float = 0.25
     # Count contact patches carrying force each step (a Python callback: ≈10–20 % slower).
     log_contact_patches: bool = True
+    # Drake's sampled output ports (MultibodyPlantConfig.use_sampled_output_ports): on, the
+    # logged contact force is the step's own result. Off gives the same trajectory ≈5 % faster,
+    # but the force log then evaluates the geometry at a non-finite state before the per-step
+    # monitor can stop the rollout, and Drake's assertion ends the process (docs/simulation.md).
+    sampled_output_ports: bool = True
 
     def validate(self, prefix: str = "") -> None:
         require(

@@ -14,15 +14,20 @@ from __future__ import annotations
 
 import copy
 import itertools
+import math
+import os
 import re
-from collections.abc import Mapping
+import sys
+from collections import Counter
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from pih.config import ConfigError, from_mapping, json_schema, to_mapping
-from pih.planner import PlannerConfig, replace
+from pih.planner_config import PlannerConfig, replace
 from pih.provenance import canonical_json
 from pih.scene_config import SceneConfig
 from pih.validation import ValidationConfig, validation_scene_config
@@ -43,6 +48,10 @@ are method keys too (shared draws), and one-level runs depend on them."""
 VARIANT_KEY = "variant"
 """Sweep key whose levels name entries of the config's ``variants`` (one-at-a-time ablations)."""
 
+VARIANT_NAME = r"[a-z0-9_]+"
+"""What a variant's name (planning's ``variants`` and ``validation.variants``) may be: it is
+part of output paths, and the workflow's ``variant`` wildcard matches only these."""
+
 
 def is_method_key(path: str) -> bool:
     """Whether a sweep key selects the method (the method, its outer level, or a named variant)
@@ -59,20 +68,37 @@ def seed_key(point: Mapping[str, Any]) -> str:
     return canonical_json({k: plain(v) for k, v in point.items() if not is_method_key(k)})
 
 
+MAX_SWEEP_POINTS = 10_000
+"""Default of the config's optional top-level ``max_sweep_points``: a sweep whose Cartesian
+product is larger stops before its points are built. Snakemake needs minutes and gigabytes to
+plan a study that large before any job runs (10,000 points: about 3 min and 1 GB)."""
+
+
 def sweep_points(
     sweep: Mapping[str, list[Any]],
     variants: Mapping[str, Mapping[str, Any]] | None = None,
     method: str = "bilevel",
+    max_points: int = MAX_SWEEP_POINTS,
 ) -> list[dict[str, Any]]:
     """The planning runs of a sweep: the Cartesian product of its levels, except that one-level
     runs (by their level of ``planner.method``, their variant's, or else ``method``, the config's)
     that differ only in settings of bilevel's outer level (``planner.outer.*`` keys, or variants
-    that change only those) are made once. Duplicate levels, unknown variants and keys whose
-    directory names would collide are errors."""
+    that change only those) are made once. Duplicate levels, unknown variants, keys whose
+    directory names would collide and a product of more than ``max_points`` points (counted
+    before any is built) are errors."""
     variants = variants or {}
+    count = math.prod(len(levels) for levels in sweep.values())
+    if count > max_points:
+        sizes = " x ".join(f"{len(levels)} {path}" for path, levels in sweep.items())
+        raise ConfigError(
+            f"sweep: {count:,} points ({sizes}) exceed max_sweep_points = {max_points:,}; "
+            "Snakemake needs minutes and gigabytes to plan that many runs (10,000: about 3 min, "
+            "1 GB) before any starts. Sweep fewer levels, or set max_sweep_points at the top "
+            "level of your config file to allow more"
+        )
     for path, levels in sweep.items():
-        encoded = [canonical_json(plain(v)) for v in levels]
-        repeated = sorted({v for v in encoded if encoded.count(v) > 1})
+        counts = Counter(canonical_json(plain(v)) for v in levels)
+        repeated = sorted(v for v, n in counts.items() if n > 1)
         if repeated:
             raise ConfigError(
                 f"sweep.{path}: repeated level(s) {repeated}; each run must be unique"
@@ -128,25 +154,35 @@ def variant_overrides(config: Mapping[str, Any], point: Mapping[str, Any]) -> di
 
 def override(config: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, Any]:
     """Deep copy of ``config`` with each dotted path of ``point`` set to its value; a
-    ``variant`` level applies that entry of ``config["variants"]`` first."""
+    ``variant`` level applies that entry of ``config["variants"]`` first. An unknown path is
+    an error naming it as ``variants.<name>.<path>`` or ``sweep.<path>``."""
     out = copy.deepcopy(dict(config))
     point = dict(point)
     if VARIANT_KEY in point:
-        point = {**variant_overrides(config, point), **point}
-        del point[VARIANT_KEY]
-    for path, value in point.items():
-        node = out
-        *parents, leaf = path.split(".")
-        for key in parents:
+        name = plain(point.pop(VARIANT_KEY))
+        set_paths(out, variant_overrides(config, {VARIANT_KEY: name}), f"variants.{name}.")
+    set_paths(out, point, "sweep.")
+    return out
+
+
+def set_paths(config: dict[str, Any], paths: Mapping[str, Any], where: str) -> None:
+    """Set each dotted path of ``paths`` in ``config``, in place; an error names the path after
+    ``where``, the config entry the paths came from."""
+    for path, value in paths.items():
+        node = config
+        *parents, leaf = str(path).split(".")
+        for depth, key in enumerate(parents):
             if not isinstance(node.get(key), dict):
-                raise ConfigError(f"sweep key {path!r}: {key!r} is not a config section")
+                section = ".".join(parents[: depth + 1])
+                raise ConfigError(f"{where}{path}: {section!r} is not a config section")
             node = node[key]
         if leaf not in node:
+            section = ".".join(parents)
             raise ConfigError(
-                f"sweep key {path!r}: no such config key {leaf!r}; allowed: {sorted(node)}"
+                f"{where}{path}: no config key {leaf!r} in {section or 'the config'}; "
+                f"allowed: {sorted(node)}"
             )
         node[leaf] = plain(value)  # Paramspace gives numpy scalars
-    return out
 
 
 def resolve(
@@ -189,7 +225,7 @@ class ValidationSection:
             raise ConfigError(
                 f"{prefix}offsets_m: {self.offsets_m!r}; expected lateral offsets in (0, 0.01) m"
             )
-        bad = [name for name in self.variants if not re.fullmatch(r"[a-z0-9_]+", name)]
+        bad = [name for name in self.variants if not re.fullmatch(VARIANT_NAME, str(name))]
         if not self.variants or bad:
             raise ConfigError(
                 f"{prefix}variants: {bad or 'empty'}; expected at least one variant, each named "
@@ -235,7 +271,8 @@ def scene_with(scene: Mapping[str, Any], overrides: Mapping[str, Any], key: str)
     """The scene with dotted-path ``overrides`` (``"solver.time_step_s"``) applied, validated;
     an error names ``key``, the config entry the overrides came from."""
     try:
-        data = override({"scene": scene}, {f"scene.{path}": v for path, v in overrides.items()})
+        data = {"scene": copy.deepcopy(dict(scene))}
+        set_paths(data, {f"scene.{path}": v for path, v in overrides.items()}, "")
         return from_mapping(SceneConfig, data["scene"], "scene")
     except ConfigError as error:
         raise ConfigError(f"{key}: {error}") from None
@@ -279,6 +316,11 @@ def config_schema() -> dict[str, Any]:
                 "description": "levels of the sweep point whose best paths Fig. 8 shows (per method)",
                 "additionalProperties": {"type": ["number", "string", "integer", "boolean"]},
             },
+            "max_sweep_points": {
+                "type": "integer",
+                "minimum": 1,
+                "description": f"optional: the most sweep points allowed (default {MAX_SWEEP_POINTS})",
+            },
         },
         "required": ["scene", "validation", "planner", "sweep", "figure_point", "robustness"],
         "additionalProperties": False,
@@ -298,9 +340,9 @@ def read_config_files(
     from the last command-line file that has them: Snakemake would merge a user's sweep onto the
     default's levels key by key."""
     for path in default_files:
-        load_yaml_strictly(path)
+        load_config_file(_relative(path))
     for path in command_line_files:
-        data = load_yaml_strictly(path) or {}
+        data = load_config_file(_relative(path))
         for section in OWN_SECTIONS:
             *parents, leaf = section.split(".")
             source, target = data, config
@@ -308,6 +350,50 @@ def read_config_files(
                 source, target = source.get(key) or {}, target.setdefault(key, {})
             if isinstance(source, dict) and leaf in source:
                 target[leaf] = source[leaf]
+
+
+def _relative(path: str) -> str:
+    """``path`` relative to the working directory when it is below it (Snakemake makes config
+    file paths absolute), for messages."""
+    relative = os.path.relpath(path)
+    return path if relative.startswith("..") else relative
+
+
+def load_config(files: list[str]) -> dict[str, Any]:
+    """The study config as the workflow sees it: ``files[0]`` (the default config), the others
+    merged onto it key by key as Snakemake's ``--configfile`` does, :data:`OWN_SECTIONS` whole."""
+    config = load_config_file(files[0])
+    for path in files[1:]:
+        _merge(config, load_config_file(path))
+    read_config_files(config, files[:1], files[1:])
+    return config
+
+
+def load_config_file(path: str) -> dict[str, Any]:
+    """A config file's top-level mapping, loaded strictly (:func:`load_yaml_strictly`); an
+    unreadable or empty file, or one that is not a mapping of sections, is an error naming it."""
+    data = load_yaml_strictly(path)
+    if not isinstance(data, dict):
+        kinds = (
+            (bool, "a boolean"),
+            ((int, float), "a number"),
+            (str, "a string"),
+            (list, "a list"),
+        )
+        kind = next((k for t, k in kinds if isinstance(data, t)), type(data).__name__)
+        what = "empty" if data is None else f"{kind}, not a mapping"
+        raise ConfigError(
+            f"{path}: {what}; expected a mapping of config sections (scene:, planner:, sweep:, ...)"
+        )
+    return data
+
+
+def _merge(config: dict[str, Any], update: Mapping[str, Any]) -> None:
+    for key, value in update.items():
+        if isinstance(value, Mapping) and isinstance(config.get(key), dict):
+            _merge(config[key], value)
+        else:
+            config[key] = value
 
 
 def load_yaml_strictly(path: str) -> Any:
@@ -319,19 +405,28 @@ def load_yaml_strictly(path: str) -> Any:
             seen: set[Any] = set()
             for key_node, _ in node.value:
                 key = self.construct_object(key_node, deep=deep)
+                line = key_node.start_mark.line + 1
+                if not isinstance(key, (str, int, float, bool)) and key is not None:
+                    raise ConfigError(
+                        f"{path}, line {line}: a key is a {type(key).__name__}; expected a name"
+                    )
                 if key in seen:
-                    line = key_node.start_mark.line + 1
                     raise ConfigError(f"{path}, line {line}: key {key!r} appears twice")
                 seen.add(key)
             return super().construct_mapping(node, deep=deep)
 
-    with open(path) as handle:
-        try:
+    try:
+        with open(path, encoding="utf-8") as handle:
             return yaml.load(handle, Loader=Loader)
-        except yaml.MarkedYAMLError as error:
-            mark = error.problem_mark or error.context_mark
-            where = f", line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-            raise ConfigError(f"{path}{where}: not valid YAML ({error.problem})") from None
+    except yaml.MarkedYAMLError as error:
+        mark = error.problem_mark or error.context_mark
+        where = f", line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise ConfigError(f"{path}{where}: not valid YAML ({error.problem})") from None
+    except (yaml.YAMLError, UnicodeDecodeError) as error:
+        first = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise ConfigError(f"{path}: not valid YAML ({first})") from None
+    except OSError as error:
+        raise ConfigError(f"{path}: cannot read it ({error.strerror or error})") from None
 
 
 def validation_scenes(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
@@ -342,27 +437,209 @@ def validation_scenes(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
 
 def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> None:
     """Validate every section, every variant and every sweep point strictly, before any job."""
-    validation_scenes(config)
+    try:
+        validation_scenes(config)
+    except ConfigError:
+        # The validation scenes are the study's scene with overrides: name the scene's own
+        # error as such, not as the overrides'.
+        from_mapping(SceneConfig, config["scene"], "scene")
+        raise
     for name in config.get("variants") or {}:
         data = override(config, {"variant": name})
         from_mapping(SceneConfig, data["scene"], f"variants.{name}: scene")
         from_mapping(PlannerConfig, data["planner"], f"variants.{name}: planner")
+        check_limits(data, f"variants.{name}: ")
     robustness = from_mapping(RobustnessSection, config["robustness"], "robustness")
     for point in points or [{}]:
-        data = override(config, point)
-        from_mapping(SceneConfig, data["scene"], "scene")
-        planner = from_mapping(PlannerConfig, data["planner"], "planner")
+        try:
+            data = override(config, point)
+            from_mapping(SceneConfig, data["scene"], "scene")
+            planner = from_mapping(PlannerConfig, data["planner"], "planner")
+            check_limits(data)
+        except ConfigError as error:
+            raise ConfigError(f"{error}{_at_point(config, point, error)}") from None
         for std in robustness.start_std_m:
             try:
                 replace(planner, deploy_start_std_m=std)
             except ConfigError as error:
                 raise ConfigError(f"robustness.start_std_m: {error}") from None
-    figure_point = config["figure_point"]
-    unknown = sorted(set(figure_point) - set(config["sweep"]))
-    if unknown:
-        raise ConfigError(f"figure_point: {unknown} are not sweep keys ({sorted(config['sweep'])})")
-    if points and not any(all(p[k] == v for k, v in figure_point.items()) for p in points):
-        raise ConfigError(
-            f"figure_point: {dict(figure_point)} is not a sweep point, so Fig. 8 would show no "
-            "run; use levels from sweep"
+
+
+def _at_point(config: Mapping[str, Any], point: Mapping[str, Any], error: ConfigError) -> str:
+    """The suffix " (at sweep point ...)" for an error only this point's levels make, else ""."""
+    if not point or str(error).startswith("sweep."):
+        return ""
+    try:
+        data = override(config, {})
+        from_mapping(SceneConfig, data["scene"], "scene")
+        from_mapping(PlannerConfig, data["planner"], "planner")
+        check_limits(data)
+    except ConfigError as base:
+        if str(base) == str(error):
+            return ""  # the config's own value, whatever the sweep
+    levels = ", ".join(f"{path}={plain(level)}" for path, level in point.items())
+    return f" (at sweep point {levels})"
+
+
+LIMITS: dict[str, float] = {
+    "planner.iterations": 10_000,
+    "planner.deploy_trials": 10_000,
+    "planner.convergence_window": 10_000,
+    "planner.optimizer.population_size": 10_000,
+    "planner.dmp.n_basis": 1_000,
+    "planner.dmp.duration_s": 60.0,
+    "planner.settle_s": 60.0,
+    "scene.hole.fillet_facets": 1_000,
+}
+"""Upper bounds of counts and simulated durations (each job's work grows with them): sanity
+limits of a study, far above any value it needs (the library itself accepts larger ones)."""
+
+
+def check_limits(data: Mapping[str, Any], prefix: str = "") -> None:
+    """Each of :data:`LIMITS` in a resolved config (sections ``scene`` and ``planner``)."""
+    for path, limit in LIMITS.items():
+        node: Any = data
+        for key in path.split("."):
+            node = node.get(key) if isinstance(node, Mapping) else None
+        if isinstance(node, (int, float)) and not isinstance(node, bool) and node > limit:
+            kind = "an integer" if isinstance(limit, int) else "a value"
+            raise ConfigError(
+                f"{prefix}{path}: {node!r} is not allowed; expected {kind} <= {limit:g} (a sanity "
+                "limit of the study, pih.study_config.LIMITS)"
+            )
+
+
+def check_variant_names(variants: Any) -> None:
+    """Planning variants are named like validation's (:data:`VARIANT_NAME`): the name is part of
+    the run directories' names."""
+    for name in variants or {}:
+        if not re.fullmatch(VARIANT_NAME, str(name)):
+            raise ConfigError(
+                f"variants.{name}: {name!r} is not allowed as a variant name; expected "
+                "lower-case letters, digits and underscores (the name is part of run directories)"
+            )
+
+
+def study_points(config: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The study's sweep points (:func:`sweep_points`), its variant names and size checked
+    first: a sweep larger than ``max_sweep_points`` stops before any point is built."""
+    variants = config.get("variants") or {}
+    check_variant_names(variants)
+    return sweep_points(
+        config["sweep"],
+        variants,
+        config["planner"]["method"],
+        max_points=config.get("max_sweep_points", MAX_SWEEP_POINTS),
+    )
+
+
+def check_schema(config: Mapping[str, Any], schema: Mapping[str, Any] | str | None = None) -> None:
+    """The config against its JSON schema (a mapping or a JSON file; default
+    :func:`config_schema`, which ``workflow/schemas/config.schema.json`` holds): the most
+    relevant error (``jsonschema``'s best match) as one :class:`ConfigError` naming the dotted
+    key, where Snakemake's ``validate`` prints 9 to 800 lines of schema and instance."""
+    import json
+
+    from jsonschema import validators
+    from jsonschema.exceptions import best_match
+
+    if isinstance(schema, str):
+        with open(schema) as handle:
+            schema = json.load(handle)
+    schema = config_schema() if schema is None else schema
+    error = best_match(validators.validator_for(schema)(schema).iter_errors(config))
+    if error is not None:
+        raise ConfigError(schema_message(error))
+
+
+def _short(value: Any, width: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= width else text[: width - 4] + " ..."
+
+
+def _dotted(parts: Any) -> str:
+    out = ""
+    for part in parts:
+        out += f"[{part}]" if isinstance(part, int) else f"{'.' if out else ''}{part}"
+    return out
+
+
+_TYPE_NAMES = {
+    "integer": "an integer",
+    "number": "a number",
+    "string": "a string",
+    "boolean": "true or false",
+    "object": "a mapping",
+    "array": "a list",
+    "null": "null",
+}
+
+
+def schema_message(error: Any) -> str:
+    """One line for a ``jsonschema`` error: the dotted key first, then what is wrong."""
+    key = _dotted(error.absolute_path)
+    where = f"{key}: " if key else ""
+    value, kind, expected = error.instance, error.validator, error.validator_value
+    if kind == "type":
+        types = [expected] if isinstance(expected, str) else list(expected)
+        if "number" in types and "integer" in types:
+            types.remove("integer")  # every integer is a number
+        names = [_TYPE_NAMES.get(t, t) for t in types]
+        wanted = " or ".join([", ".join(names[:-1]), names[-1]] if len(names) > 1 else names)
+        return f"{where}{_short(value)} is not allowed; expected {wanted}"
+    if kind == "enum":
+        return f"{where}{_short(value)} is not allowed; expected one of {list(expected)}"
+    if kind == "additionalProperties" and isinstance(value, Mapping):
+        allowed = sorted(error.schema.get("properties", {}))
+        extra = sorted((str(k) for k in value if k not in allowed), key=str)
+        name = f"{key}.{extra[0]}" if key else extra[0] if extra else key
+        return f"{name}: unknown key; allowed keys{f' of {key}' if key else ''} are {allowed}"
+    if kind == "required" and isinstance(value, Mapping):
+        missing = [k for k in expected if k not in value]
+        name = f"{key}.{missing[0]}" if key else missing[0] if missing else key
+        return f"{name}: missing (required{f' in {key}' if key else ''})"
+    if kind == "pattern" and "scene|planner" in str(expected):
+        name = f"{key}.{value}" if key else str(value)
+        sweep = "variant" in str(expected)
+        return (
+            f"{name}: not allowed as a key of {key or 'the config'}; expected a dotted config path "
+            f"under scene or planner (e.g. planner.sensing.bias_m){' or variant' if sweep else ''}"
         )
+    if kind in ("minItems", "maxItems"):
+        bound = "at least" if kind == "minItems" else "at most"
+        return f"{where}{_short(value)} has {len(value)} item(s); expected {bound} {expected}"
+    if kind == "minProperties":
+        return f"{where}empty; expected at least {expected} entry"
+    if kind in ("minimum", "maximum"):
+        bound = ">=" if kind == "minimum" else "<="
+        return f"{where}{_short(value)} is not allowed; expected a value {bound} {expected}"
+    first = error.message.splitlines()[0] if error.message else kind
+    return f"{where}{first[:200]}"
+
+
+@contextmanager
+def stop_on_config_error() -> Iterator[None]:
+    """For the workflow's top level: a :class:`ConfigError` is printed as one line on stderr
+    (``config error: KEY: what is wrong``, no stack frames) and the process exits with status
+    1, before any job starts."""
+    try:
+        yield
+    except ConfigError as error:
+        print(f"config error: {' '.join(str(error).split())}", file=sys.stderr)
+        sys.exit(1)
+
+
+def figure_point(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> dict[str, Any]:
+    """The levels of the sweep point Fig. 8 shows: ``figure_point`` when some sweep point has
+    them, else the first sweep point's (a user study that sets only ``sweep`` inherits the
+    default's figure point), said on stderr."""
+    wanted = dict(config.get("figure_point") or {})
+    if not points or any(all(p.get(k) == v for k, v in wanted.items()) for p in points):
+        return wanted
+    first = {k: v for k, v in points[0].items() if k in config["sweep"] and not is_method_key(k)}
+    print(
+        f"figure_point: {wanted} is not a sweep point of this study; Fig. 8 shows the first "
+        f"sweep point, {first}",
+        file=sys.stderr,
+    )
+    return first

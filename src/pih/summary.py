@@ -92,32 +92,90 @@ def chosen_variants(variants: pd.DataFrame) -> pd.DataFrame:
     )
 
 
-def planning_rows(success: pd.DataFrame) -> pd.DataFrame:
-    """Deployment success per method with its interval, beside the paper's claim: over all runs,
-    or per level where the study compares another dimension (an ablation's variants), whose
-    levels are different designs that do not pool."""
+def _interval(rate: float, low: float, high: float) -> str:
+    return "—" if not np.isfinite(rate) else f"{rate:.2f} ({low:.2f}–{high:.2f})"
+
+
+def headline_std(robustness: pd.DataFrame) -> float | None:
+    """The start std of the headline: the smallest σ > 0 the study redeployed at."""
+    stds = sorted(s for s in robustness["start_std_m"].unique() if s > 0)
+    return float(stds[0]) if stds else None
+
+
+def planning_rows(success: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
+    """The headline per method (and per compared level, e.g. an ablation's variants, whose
+    levels are different designs that do not pool): deployment success from starts offset by
+    N(0, σ²), a test the learned policy can fail; beside it the nominal deployment, how many runs'
+    nominal trials only repeated a training rollout, and the final mean's deployment."""
     compared = compared_rows(success)
     overall = compared if len(compared) else success[success["dimension"] == "all"]
-    levels = {"dimension": overall["dimension"], "level": overall["level"]} if len(compared) else {}
-    return pd.DataFrame(
-        {
-            "method": overall["method"],
-            **levels,
-            "paper": [PAPER_PLANNING.get(m, "") for m in overall["method"]],
-            "runs": overall["runs"],
-            "deployment_success": overall["deploy_success_rate"],
-            "ci95_low": overall["deploy_ci_low"],
-            "ci95_high": overall["deploy_ci_high"],
-            "final_mean_deployment_success": overall["final_mean_deploy_success_rate"],
-            "median_goal_iteration": overall["median_goal_iteration"],
-        }
-    )
+    std = headline_std(robustness)
+    rows = []
+    for _, row in overall.iterrows():
+        levels = {"dimension": row["dimension"], "level": row["level"]} if len(compared) else {}
+        perturbed = robustness[robustness["method"] == row["method"]]
+        if len(compared):
+            perturbed = perturbed[perturbed[row["dimension"]].astype(str) == str(row["level"])]
+        perturbed = perturbed[perturbed["start_std_m"] == std] if std is not None else perturbed[:0]
+        off = perturbed.iloc[0] if len(perturbed) else None
+        rows.append(
+            {
+                "method": row["method"],
+                **levels,
+                "paper": PAPER_PLANNING.get(row["method"], ""),
+                "runs": row["runs"],
+                f"from starts {1e3 * std:g} mm off" if std else "from offset starts": (
+                    _interval(off["deploy_success_rate"], off["deploy_ci_low"], off["deploy_ci_high"])
+                    if off is not None
+                    else "— (not redeployed)"
+                ),
+                "runs all inserted (offset)": off["runs_all_inserted"] if off is not None else "—",
+                "from the training start": _interval(
+                    row["deploy_success_rate"], row["deploy_ci_low"], row["deploy_ci_high"]
+                ),
+                "runs only repeating training": row["runs_repeating_training"],
+                "final mean, training start": _interval(
+                    row["final_mean_deploy_success_rate"],
+                    row["final_mean_deploy_ci_low"],
+                    row["final_mean_deploy_ci_high"],
+                ),
+                "median goal iteration": row["median_goal_iteration"],
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def perturbed_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
+    """The paired comparisons on the headline's offset starts (same draws at each point)."""
+    std = headline_std(robustness)
+    if std is None:
+        return paired[:0]
+    rows = paired[(paired["dimension"] == "start_std_m") & (paired["level"] == str(std))]
+    return rows.drop(columns=["dimension", "level"]).reset_index(drop=True)
 
 
 def paired_rows(paired: pd.DataFrame) -> pd.DataFrame:
     """The overall rows of :func:`pih.aggregate.paired_table`."""
     overall = paired[paired["dimension"] == "all"]
     return overall.drop(columns=["dimension", "level"]).reset_index(drop=True)
+
+
+def study_header(study: Mapping[str, object], code_version: str) -> str:
+    """What the summary summarises: config files, budget, runs, code version; a visible note when
+    the study is not the default one (its numbers are then not the published ones)."""
+    files = ", ".join(f"`{f}`" for f in study["config_files"])
+    note = (
+        ""
+        if study["default"]
+        else "\n> **Not the default study**: the config above changes `config/config.yaml`, so "
+        "these numbers are not the published ones (README, \"Results\"); a reduced budget "
+        "(e.g. the smoke study's) is a check of the code paths, not a result.\n"
+    )
+    return f"""Study: {files}; budget {study["iterations"]} iterations × \
+{study["rollouts_per_iteration"]} rollouts per planning run, {study["planning_runs"]} planning runs, \
+{study["deploy_trials"]} deployment trials per run; code version `{code_version}`. The paper's \
+numbers are quoted from its text; ours come from the tables linked at the end.
+{note}"""
 
 
 def summary_markdown(
@@ -128,32 +186,37 @@ def summary_markdown(
     robustness: pd.DataFrame,
     code_version: str,
     links: Mapping[str, str],
+    study: Mapping[str, object],
 ) -> str:
     """The summary page: planning headline first (the paper's contribution), then validation."""
     links_md = "\n".join(f"- [{name}]({target})" for name, target in links.items())
+    std = headline_std(robustness)
+    sigma = f"{1e3 * std:g} mm" if std else "σ"
     return f"""# pih study summary
 
-Generated by the workflow from code version `{code_version}`. The paper's numbers are quoted
-from its text; ours come from the tables linked below.
-
+{study_header(study, code_version)}
 ## Would the learned policy insert? (paper §3–4)
 
 Deployment success: the fraction of deployment trials of the learned policy that inserted,
-averaged over independent runs (starts × seeds); the 95 % Wilson interval counts each run as one
-observation. `median_goal_iteration`: the first iteration whose goal was within the success
-tolerance of the true hole (median over runs).
+averaged over independent runs (one per start and seed), with a 95 % Wilson interval that counts
+each run as one observation. **The headline is from starts {sigma} off**: each trial's start
+offset by N(0, ({sigma})²) in x and y (`robustness.start_std_m`), a test every method can fail.
+From the training start, a run whose target reads no fresh sensing (our rule, once it has found
+the hole) deploys by repeating a training rollout ("runs only repeating training"), which cannot
+fail once its mean inserted. `median goal iteration`: the first iteration whose goal was within
+the success tolerance of the true hole (median over runs; blank: in fewer than half the runs).
 
-{markdown_table(planning_rows(success), "{:.3g}")}
+{markdown_table(planning_rows(success, robustness), "{:.3g}")}
 
-Paired over the sweep points both methods ran (the same random draws): at how many `method`
-deployed more often than `versus`, less often or equally, and a two-sided exact sign test.
+Paired from starts {sigma} off, over the sweep points both methods ran (the same random draws):
+at how many `method` deployed more often than `versus`, less often or equally, the mean
+difference, and a two-sided exact sign test over the untied pairs.
+
+{markdown_table(perturbed_pairs(paired, robustness), "{:.3g}")}
+
+The same from the training start (nominal deployment):
 
 {markdown_table(paired_rows(paired), "{:.3g}")}
-
-From inexact starts: each run's policy deployed again with every trial's start offset in x and
-y by N(0, σ²) (`robustness.start_std_m`), beside its own deployment (the σ of the table above).
-
-{markdown_table(robustness, "{:.3g}")}
 
 ## Hydroelastic contact vs Whitney's theory (paper Tables 2–3)
 

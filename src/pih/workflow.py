@@ -27,6 +27,20 @@ def logged(path: str) -> Iterator[None]:
             raise
 
 
+ALLOCATORS = (
+    "/usr/lib/x86_64-linux-gnu/libtcmalloc_minimal.so.4",
+    "/usr/lib/x86_64-linux-gnu/libjemalloc.so.2",
+    "/usr/lib/aarch64-linux-gnu/libtcmalloc_minimal.so.4",
+    "/usr/lib/aarch64-linux-gnu/libjemalloc.so.2",
+)
+
+
+def preloaded_allocator() -> str:
+    """The first installed of :data:`ALLOCATORS` (the faster first, measured in
+    ``benchmarks/planner.py``), for ``LD_PRELOAD``; "" when none is."""
+    return next((path for path in ALLOCATORS if Path(path).is_file()), "")
+
+
 def job_provenance(
     smk: Any, step: str, *, point: Mapping[str, Any] | None = None, **fields: Any
 ) -> dict[str, Any]:
@@ -73,7 +87,9 @@ def mock_snakemake(target: str, configfiles: list[str] | None = None) -> tuple[A
         WorkflowSettings,
     )
 
-    files = [Path(f) for f in (configfiles or ["config/config.yaml"])]
+    # Without config files the Snakefile's own (config/config.yaml) is the config, as for
+    # `snakemake`; passing it would make Snakemake say it "is extended by additional config".
+    files = [Path(f) for f in configfiles or []]
     with snakemake.api.SnakemakeApi(OutputSettings()) as api:
         workflow_api = api.workflow(
             resource_settings=ResourceSettings(),

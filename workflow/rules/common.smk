@@ -2,24 +2,34 @@ import pandas as pd
 from snakemake.utils import Paramspace, validate
 
 from pih.provenance import script_library_hash
-from pih.study_config import sweep_points
 from pih.study_config import (
+    check_schema,
     check_study,
+    figure_point,
     read_config_files,
     resolved_sections,
+    stop_on_config_error,
+    study_points,
     validation_scenes,
 )
 
-# No repeated YAML keys; a --configfile defines its own sweep (not merged onto the default's).
-read_config_files(config, workflow.configfiles, workflow.overwrite_configfiles or [])
-# Stop before any job runs if the config is malformed (schema) or out of range (library).
-validate(config, "../schemas/config.schema.json")
+# Stop before any job runs if the config is malformed (schema) or out of range (library), with
+# one line naming the file or the dotted key (and the variant).
+with stop_on_config_error():
+    # No repeated YAML keys; a --configfile defines its own sweep (not merged onto the default's).
+    read_config_files(
+        config, workflow.configfiles, workflow.overwrite_configfiles or []
+    )
+    check_schema(
+        config, os.path.join(workflow.basedir, "workflow/schemas/config.schema.json")
+    )
+    validate(config, "../schemas/config.schema.json")
+    # Sweep: each key a dotted config path, each value its levels; a run's directory is named
+    # by the last path components and levels ("start_x_m~-0.035_method~bilevel_seed~0"). At
+    # most max_sweep_points (default 10,000), counted before any point is built.
+    POINTS = study_points(config)
+    check_study(config, POINTS)
 
-# Sweep: each key a dotted config path, each value its levels; a run's directory is named by the
-# last path components and levels ("start_x_m~-0.035_method~bilevel_seed~0").
-POINTS = sweep_points(
-    config["sweep"], config.get("variants"), config["planner"]["method"]
-)
 SWEEP_PATHS = {path.rsplit(".", 1)[-1]: path for path in config["sweep"]}
 PLANNING = Paramspace(
     pd.DataFrame(
@@ -43,9 +53,6 @@ def resolved_section(section):
     return lambda wildcards: resolved_sections(config, sweep_point(wildcards))[section]
 
 
-check_study(config, POINTS)
-
-
 def library_of(script):
     """The hash of the pih modules a workflow script imports, directly or not: a library edit
     re-runs the jobs whose code it reaches (Snakemake tracks the script, not its imports).
@@ -63,6 +70,21 @@ REDEPLOYMENTS = expand(
     std=ROBUSTNESS_STDS,
 )
 
+# What results/summary.md says it summarises.
+STUDY = {
+    "config_files": list(
+        dict.fromkeys(
+            os.path.relpath(f, workflow.basedir)
+            for f in [*workflow.configfiles, *(workflow.overwrite_configfiles or [])]
+        )
+    ),
+    "default": not workflow.overwrite_configfiles,
+    "iterations": config["planner"]["iterations"],
+    "rollouts_per_iteration": config["planner"]["optimizer"]["population_size"],
+    "deploy_trials": config["planner"]["deploy_trials"],
+    "planning_runs": len(POINTS),
+}
+
 VALIDATION_OFFSETS = config["validation"]["offsets_m"]
 VALIDATION_VARIANTS = list(config["validation"]["variants"])
 # Each validation run gets its variant's resolved scene as params, so a changed or added
@@ -76,7 +98,7 @@ FIGURE_POINTS = [
     )
     if all(
         row[path.rsplit(".", 1)[-1]] == level
-        for path, level in config["figure_point"].items()
+        for path, level in figure_point(config, POINTS).items()
     )
 ]
 

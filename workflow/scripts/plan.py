@@ -2,8 +2,10 @@
 
 from pih.config import from_mapping, to_mapping
 from pih.outputs import write_table
-from pih.planner import PATH_COLUMNS, ROLLOUT_COLUMNS, Planner, PlannerConfig
+from pih.planner import Planner
+from pih.planner_config import PlannerConfig
 from pih.recordings import record_planning
+from pih.run_record import PATH_COLUMNS, ROLLOUT_COLUMNS
 from pih.scene_config import SceneConfig
 from pih.study_config import seed_key, variant_overrides
 from pih.workflow import job_provenance, logged

@@ -2,7 +2,7 @@
 
 from pih.config import to_mapping
 from pih.outputs import write_table
-from pih.planner import ROLLOUT_COLUMNS, RecordedRun
+from pih.run_record import ROLLOUT_COLUMNS, RecordedRun
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):

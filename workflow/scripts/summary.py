@@ -16,6 +16,7 @@ with logged(snakemake.log[0]):
         pd.read_parquet(snakemake.input.robustness),
         read_provenance(snakemake.input.success)["code_version"],
         dict(snakemake.params.links),
+        dict(snakemake.params.study),
     )
     write_text(snakemake.output.summary, text, job_provenance(snakemake, "summary"))
     print(text)

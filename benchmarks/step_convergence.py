@@ -1,0 +1,182 @@
+"""Step convergence: do insertion outcomes agree at the study's time step and at half of it?
+
+Every number the study reports is an insertion outcome decided at the chamfer, where a tilted
+peg either slides in or wedges; a step that is too coarse decides some of those differently.
+This check replays a fixed set of recorded planning rollouts (the same robot motion: start, P2
+target and DMP weights) at the configured step h and at h/2 (the retry step halved too) and
+counts the outcomes that flip.
+
+The set (``benchmarks/step_convergence_set.parquet``, committed) and its recipe: from every
+given run's training rollouts (``phase == 'train'``) in the later half of its iterations
+(contact-rich: by then most rollouts reach the chamfer or the hole), an equal number per method
+(one-level, the paper's rule, ours), drawn without replacement by ``numpy.random.default_rng(0)``
+after sorting by (run, iteration, rollout); 240 in all (80 per method). Redraw it with
+``--draw-from results/planning/*/rollouts.parquet``.
+
+    python benchmarks/step_convergence.py [--configfile config/config.yaml] [--workers 2]
+                                          [--time-step-s H] [--draw-from RUN ...]
+
+The last line is machine-readable: ``flips=F of N median_dp2_um=D verdict=PASS|FAIL``, PASS when
+at least 97 % of the outcomes agree. A step that fails is still allowed in a config (a user's
+choice); the study's own step must pass (README, docs/simulation.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from pih.config import from_mapping, to_mapping
+from pih.planner import Planner
+from pih.planner_config import PlannerConfig
+from pih.run_record import RecordedRun, recorded_rollout
+from pih.scene_config import SceneConfig
+from pih.study_config import load_config
+
+SET_PATH = Path(__file__).with_name("step_convergence_set.parquet")
+SET_SIZE = 240
+AGREEMENT = 0.97
+COLUMNS = [
+    "run",
+    "method",
+    "iteration",
+    "rollout",
+    *(f"{p}_{c}" for p in ("start", "target", "sensed_hole") for c in ("x_m", "y_m", "theta_rad")),
+    "weights",
+]
+
+
+def method_of(run: RecordedRun) -> str:
+    planner = run.planner
+    return "one_level" if planner.method == "one_level" else planner.outer.rule
+
+
+def draw_set(paths: list[Path], size: int = SET_SIZE) -> pd.DataFrame:
+    """The recipe of the module docstring: late training rollouts, an equal share per method."""
+    pools: dict[str, list[pd.DataFrame]] = {}
+    planner_config: PlannerConfig | None = None
+    for path in sorted(paths):
+        run = RecordedRun.read(path)
+        rows = run.rollouts[run.rollouts["phase"] == "train"]
+        late = rows[rows["iteration"] > rows["iteration"].max() / 2].copy()
+        late["run"] = path.parent.name
+        late["method"] = method_of(run)
+        pools.setdefault(late["method"].iloc[0], []).append(late)
+        planner_config = planner_config or run.planner
+    rng = np.random.default_rng(0)
+    share = -(-size // len(pools))
+    picked = []
+    for method in sorted(pools):
+        pool = pd.concat(pools[method]).sort_values(["run", "iteration", "rollout"])
+        chosen = np.sort(rng.choice(len(pool), size=min(share, len(pool)), replace=False))
+        picked.append(pool.iloc[chosen][COLUMNS])
+    drawn = pd.concat(picked, ignore_index=True)
+    assert planner_config is not None
+    drawn.attrs["planner"] = to_mapping(planner_config)
+    return drawn
+
+
+def write_set(drawn: pd.DataFrame, path: Path) -> None:
+    table = pa.Table.from_pandas(drawn, preserve_index=False)
+    meta = {**(table.schema.metadata or {}), b"planner": json.dumps(drawn.attrs["planner"])}
+    pq.write_table(table.replace_schema_metadata(meta), path)
+
+
+def read_set(path: Path) -> tuple[pd.DataFrame, PlannerConfig]:
+    meta = pq.read_schema(path).metadata
+    planner = from_mapping(PlannerConfig, json.loads(meta[b"planner"]), "planner")
+    return pd.read_parquet(path), planner
+
+
+_PLANNER: Planner | None = None
+
+
+def _start(scene: SceneConfig, planner: PlannerConfig) -> None:
+    global _PLANNER
+    _PLANNER = Planner.from_configs(scene, planner)
+
+
+def _replay(row: dict) -> tuple[bool, float, float]:
+    """(inserted: |P2 − H| within tolerance and not diverged; final P2 x, y)."""
+    assert _PLANNER is not None
+    start, target, weights, sensed = recorded_rollout(pd.Series(row))
+    trace, _ = _PLANNER.evaluate(_PLANNER.dmp(start, target), weights, sensed)
+    tip = trace.q_peg_bottom[-1]
+    error = float(np.hypot(*(tip[:2] - _PLANNER.scene.hole_pose[:2])))
+    inserted = trace.ok and error <= _PLANNER.config.success_tolerance_m
+    return inserted, float(tip[0]), float(tip[1])
+
+
+def replay_all(
+    rows: pd.DataFrame, scene: SceneConfig, planner: PlannerConfig, workers: int
+) -> np.ndarray:
+    records = rows.to_dict("records")
+    with ProcessPoolExecutor(workers, initializer=_start, initargs=(scene, planner)) as pool:
+        return np.array(list(pool.map(_replay, records, chunksize=4)), dtype=float)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--configfile", nargs="+", default=["config/config.yaml"])
+    parser.add_argument("--time-step-s", type=float, help="the step h to check (default: config's)")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--draw-from", nargs="+", type=Path, metavar="ROLLOUTS")
+    parser.add_argument("--output", type=Path, help="Parquet of every rollout's outcome at h and h/2")
+    args = parser.parse_args()
+
+    if args.draw_from:
+        drawn = draw_set(args.draw_from)
+        write_set(drawn, SET_PATH)
+        print(f"{SET_PATH}: {len(drawn)} rollouts ({drawn['method'].value_counts().to_dict()})")
+    rows, planner = read_set(SET_PATH)
+    config = load_config(args.configfile)
+    scene = from_mapping(SceneConfig, config["scene"], "scene")
+    step = args.time_step_s or scene.solver.time_step_s
+    coarse = scene.replace(solver__time_step_s=step, solver__retry_time_step_s=step / 2)
+    fine = scene.replace(solver__time_step_s=step / 2, solver__retry_time_step_s=step / 4)
+    seconds = {}
+    outcomes = {}
+    for name, setting in (("h", coarse), ("h/2", fine)):
+        started = time.perf_counter()
+        outcomes[name] = replay_all(rows, setting, planner, args.workers)
+        seconds[name] = time.perf_counter() - started
+    inserted_h, inserted_half = outcomes["h"][:, 0] > 0, outcomes["h/2"][:, 0] > 0
+    flips = inserted_h != inserted_half
+    dp2_um = 1e6 * np.hypot(*(outcomes["h"][:, 1:] - outcomes["h/2"][:, 1:]).T)
+    n = len(rows)
+    print(f"{n} recorded rollouts at h = {1e3 * step:g} ms and h/2 ({seconds['h']:.0f} s and "
+          f"{seconds['h/2']:.0f} s with {args.workers} workers)")
+    for method, group in rows.groupby("method"):
+        idx = group.index.to_numpy()
+        print(
+            f"  {method}: {flips[idx].sum()} of {len(idx)} flip; inserted {inserted_h[idx].sum()} "
+            f"at h, {inserted_half[idx].sum()} at h/2"
+        )
+    if args.output:
+        per_rollout = rows[["run", "method", "iteration", "rollout"]].assign(
+            inserted_h=inserted_h,
+            inserted_half=inserted_half,
+            **{f"p2_{c}_m_{n}": outcomes[k][:, i + 1] for i, c in enumerate("xy") for k, n in
+               (("h", "h"), ("h/2", "half"))},
+        )
+        per_rollout.to_parquet(args.output)
+    toward = int((flips & inserted_h).sum())
+    print(f"  of the flips, {toward} insert at h only and {int(flips.sum()) - toward} at h/2 only")
+    verdict = "PASS" if 1 - flips.mean() >= AGREEMENT else "FAIL"
+    print(f"flips={int(flips.sum())} of {n} median_dp2_um={np.median(dp2_um):.3g} verdict={verdict}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,235 @@
+"""The planner's configuration (paper Table 4 and §3.3): :class:`PlannerConfig` and its
+sections, validated; :func:`replace` for validated changes. No Drake: building a study's job
+graph reads these without loading the simulator. The code that uses them: :mod:`pih.costs`
+(eq. 11), :mod:`pih.outer` (eq. 15–16), :mod:`pih.planner` (Algorithm 1). docs/planner.md
+explains the choices.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pih.config import require, require_finite, require_positive
+from pih.dmp import DmpConfig
+from pih.optimizers import OptimizerConfig
+
+Method = Literal["one_level", "bilevel"]
+METHODS: tuple[str, ...] = ("one_level", "bilevel")
+
+
+Balance = Literal["none", "first_iteration_median"]
+Redraw = Literal["per_iteration", "per_run"]
+OuterRule = Literal["explored_argmin", "deepest_explored"]
+GoalTilt = Literal["explored", "sensed"]
+DeployPolicy = Literal["final_mean", "last_inserted_mean"]
+DEPLOY_POLICIES: tuple[str, ...] = ("final_mean", "last_inserted_mean")
+COST_TERMS: tuple[str, ...] = ("regularization", "spring_energy", "hole_distance")
+MAX_START_HEIGHT_M = 0.15
+"""Highest start allowed above the hole's top surface (the paper's Fig. 8 starts ≈0.1 m up)."""
+
+
+@dataclass(frozen=True)
+class CostConfig:
+    """Weights of eq. 11 (paper Table 4), the sampling of its sums, and their balance."""
+
+    regularization: float = 1.0e4  # α1
+    spring_energy: float = 20.0  # α2
+    hole_distance: float = 10.0  # α3
+    # The sums over t in eq. 11 run over samples this far apart, so the weights' balance does
+    # not change with the simulator's time step. Not in the paper.
+    sample_period_s: float = 0.01
+    # Whether the sums also run over the settling time after the DMP's duration T.
+    include_settling: bool = True
+    # "none": eq. 11 as printed. "first_iteration_median": each term is divided by its median
+    # over the first iteration's rollouts (then weighted by α), so the terms start at the
+    # similar sizes the paper asks for (§3.3); the divisors are fixed after iteration 1.
+    balance: Balance = "none"
+
+    def validate(self, prefix: str = "") -> None:
+        require_positive(self, COST_TERMS, prefix, allow_zero=True)
+        require(
+            math.isfinite(self.sample_period_s) and self.sample_period_s > 0,
+            prefix + "sample_period_s",
+            "a finite period > 0 s",
+            self.sample_period_s,
+        )
+        if self.balance != "none":
+            for name in COST_TERMS:
+                require(
+                    getattr(self, name) > 0,
+                    prefix + name,
+                    f"a weight > 0 when {prefix}balance is {self.balance!r} "
+                    "(a zero term has a zero median to divide by)",
+                    getattr(self, name),
+                )
+
+
+@dataclass(frozen=True)
+class SensingConfig:
+    """Visual noise on the hole's x (paper §3.2) and the belief Σ_H of eq. 11 and 15."""
+
+    bias_m: float = 0.005  # μ_x, Table 4
+    std_m: float = 0.005  # σ_x, Table 4
+    # Σ_H = diag(σ²) for (x, y, θ). Not in the paper. x: the vision noise σ_x; y and θ are sensed
+    # exactly (eq. 16b), so their belief is tight: 1 mm and 0.02 rad (with a loose θ belief the
+    # outer level picks tilted explored poses, and a tilted goal jams the peg in the hole). A
+    # tight y makes J_out prefer explored poses at the hole's depth over poses beside it.
+    hole_std: tuple[float, float, float] = (0.005, 0.001, 0.02)
+    # "per_iteration": the hole is sensed anew every iteration (Algorithm 1, Fig. 6);
+    # "per_run": once per run.
+    redraw: Redraw = "per_iteration"
+
+    def validate(self, prefix: str = "") -> None:
+        require_finite(prefix + "bias_m", self.bias_m)
+        require(
+            math.isfinite(self.std_m) and self.std_m >= 0,
+            prefix + "std_m",
+            "a finite std >= 0 m",
+            self.std_m,
+        )
+        require(
+            all(math.isfinite(s) and s > 0 for s in self.hole_std),
+            prefix + "hole_std",
+            "three finite standard deviations > 0 (Σ_H must be non-singular)",
+            self.hole_std,
+        )
+
+    @property
+    def hole_precision(self) -> NDArray[np.float64]:
+        """Diagonal of Σ_H⁻¹."""
+        return 1.0 / np.square(self.hole_std)
+
+
+@dataclass(frozen=True)
+class OuterConfig:
+    """How bilevel's outer level sets the DMP goal (eq. 15–16); see docs/planner.md."""
+
+    # "explored_argmin": the paper's rule, arg min J_out over the peg-tip poses P2 explored by
+    # the previous iteration. "deepest_explored": once some rollout has put P2 more than
+    # entry_depth_m below the hole's top surface with the peg within max_tilt_rad of the hole's
+    # axis, aim along that axis (x of the deepest such P2 so far, the sensed depth y_H and tilt
+    # θ_H, eq. 16b: exact); before that, the paper's rule.
+    rule: OuterRule = "explored_argmin"
+    # The paper's rule's goal tilt: the chosen explored pose's ("explored") or θ_H ("sensed").
+    goal_tilt: GoalTilt = "explored"
+    # deepest_explored: how far below the top surface counts as inside the chamfer or hole...
+    entry_depth_m: float = 0.001
+    # ...for a peg this close to upright (a steeply tilted peg can dip its tip centre into the
+    # chamfer from beside the hole).
+    max_tilt_rad: float = 0.05
+
+    def validate(self, prefix: str = "") -> None:
+        require_positive(self, ("entry_depth_m", "max_tilt_rad"), prefix)
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    method: Method = "bilevel"
+    iterations: int = 50  # Table 4 / §3.3
+    # Start of the peg centre's x (paper §3.3: x_P from −0.04 to −0.03 m).
+    start_x_m: float = -0.035
+    # Height of the peg tip P2 above the hole's top surface at the start. Not in the paper: 5 mm
+    # clears the surface so the first contact is made by the planned motion (Fig. 8: ≈0.1 m).
+    start_height_m: float = 0.005
+    # Extra simulated time after the DMP's duration T, so the peg settles before success is judged.
+    # Not in the paper; 0.3 s is ~2 periods of the peg on the 1000 N/m spring.
+    settle_s: float = 0.3
+    # Success: |P2 − H| (x, y) at the end. Not in the paper; 1 mm is well inside the hole
+    # (the chamfer alone is 2.5 mm deep) and tighter than the 5 mm visual noise.
+    success_tolerance_m: float = 0.001
+    # The run's seed. With optimizer.seed and the run's sweep levels (all but the method's), it
+    # seeds the sensed holes, the exploration noise and the deployment trials (see run_seeds).
+    seed: int = 0
+    # After the last iteration, the learned policy (mean weights, no exploration) is deployed
+    # this many times, each against a freshly sensed hole: the headline success metric.
+    deploy_trials: int = 10
+    # Which weights are deployed: the optimizer's mean after the last iteration, or (evaluating
+    # the mean once per iteration, as dmpbbo does) the latest mean whose rollout inserted by
+    # the planner's own observation (``Planner.inserted``); the final mean if none did. With
+    # the latter the final mean is deployed too, on the same sensed holes (phase
+    # ``deploy_final_mean``), so one training run measures both policies.
+    deploy_policy: DeployPolicy = "last_inserted_mean"
+    # Each deployment trial starts the peg tip this far off the training start, x and y each
+    # N(0, σ²) from the deployment stream (0: every trial starts where training did). Without
+    # it a bilevel policy whose goal does not depend on the sensed hole deploys the same
+    # rollout every trial; with it, the trials ask whether the policy tolerates a start the
+    # robot reaches only to within σ. Not in the paper.
+    deploy_start_std_m: float = 0.0
+    # Each training rollout (sampled and the evaluated mean) starts this far off the nominal
+    # start, x and y each N(0, σ²) from the run's start stream, so the optimizer ranks weights
+    # by how they do from starts the robot reaches only to within σ (robust training; 0: every
+    # training rollout starts at the nominal start, Algorithm 1). Not in the paper.
+    train_start_std_m: float = 0.0
+    # Stop early when the best J_inn of the last `convergence_window` iterations varies by less
+    # than `convergence_tolerance` relative to its mean; 0 runs the whole budget (the paper's
+    # bands compare runs over the same iterations).
+    convergence_window: int = 0
+    convergence_tolerance: float = 0.01
+    # T = 3 s (not in the paper): 3.3 s simulated per rollout with the settling time.
+    dmp: DmpConfig = field(default_factory=DmpConfig)
+    optimizer: OptimizerConfig = field(default_factory=OptimizerConfig)
+    costs: CostConfig = field(default_factory=CostConfig)
+    sensing: SensingConfig = field(default_factory=SensingConfig)
+    outer: OuterConfig = field(default_factory=OuterConfig)
+
+    def validate(self, prefix: str = "") -> None:
+        require(self.method in METHODS, prefix + "method", f"one of {list(METHODS)}", self.method)
+        require(self.iterations >= 1, prefix + "iterations", "an integer >= 1", self.iterations)
+        require_finite(prefix + "start_x_m", self.start_x_m)
+        require_positive(self, ("start_height_m", "success_tolerance_m"), prefix)
+        require(
+            self.start_height_m <= MAX_START_HEIGHT_M,
+            prefix + "start_height_m",
+            f"a height <= {MAX_START_HEIGHT_M} m above the hole's top surface",
+            self.start_height_m,
+        )
+        require_positive(self, ("settle_s",), prefix, allow_zero=True)
+        require(self.seed >= 0, prefix + "seed", "an integer >= 0", self.seed)
+        require(
+            self.deploy_trials >= 1, prefix + "deploy_trials", "an integer >= 1", self.deploy_trials
+        )
+        for key in ("train_start_std_m", "deploy_start_std_m"):
+            std = getattr(self, key)
+            require(
+                math.isfinite(std) and 0 <= std <= self.start_height_m / 4,
+                prefix + key,
+                f"a std >= 0 m and <= start_height_m / 4 ({self.start_height_m / 4:g} m), so "
+                "that offset starts stay above the hole's top surface",
+                std,
+            )
+        require(
+            self.deploy_policy in DEPLOY_POLICIES,
+            prefix + "deploy_policy",
+            f"one of {list(DEPLOY_POLICIES)}",
+            self.deploy_policy,
+        )
+        require(
+            self.convergence_window == 0 or self.convergence_window >= 2,
+            prefix + "convergence_window",
+            "0 (no early stop) or an integer >= 2 (one iteration's spread is always 0)",
+            self.convergence_window,
+        )
+        require(
+            math.isfinite(self.convergence_tolerance) and self.convergence_tolerance > 0,
+            prefix + "convergence_tolerance",
+            "a finite value > 0",
+            self.convergence_tolerance,
+        )
+        self.dmp.validate(prefix + "dmp.")
+        self.optimizer.validate(prefix + "optimizer.")
+        self.costs.validate(prefix + "costs.")
+        self.sensing.validate(prefix + "sensing.")
+        self.outer.validate(prefix + "outer.")
+
+
+def replace(config: PlannerConfig, **changes: object) -> PlannerConfig:
+    """dataclasses.replace with validation."""
+    new = dataclasses.replace(config, **changes)
+    new.validate()
+    return new

@@ -1,0 +1,234 @@
+"""The published default study: what the repository carries, whether it is still current, and
+``pih compare OLD NEW``: did a study reproduce another one (e.g. the published one)?
+
+``published/default/`` is a copy of one complete ``snakemake -j2`` run of ``config/config.yaml``
+at one commit (:func:`publish` copies it from ``results/``: data, tables, figures, provenance;
+not the recordings). The workflow never reads it: a fresh clone recomputes everything.
+:func:`stale_reasons` says why it no longer matches the config or the rollout code
+(tests/test_published.py fails then).
+
+Two result trees (``results/`` directories of studies) are compared on their headline numbers —
+deployment success per method from offset starts and from the training start, with intervals,
+the paired comparisons, Table 2–3's validation numbers — and on each planning run's data (the
+table of ``rollouts.parquet`` and its redeployments, without provenance). Every number that
+differs is one line; the last line counts them. No Drake, no simulation: it reads Parquet files.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from pih.outputs import read_provenance
+from pih.provenance import canonical_json, input_sha256, rollout_code_hash
+
+PUBLISHED_DIR = Path("published/default")
+PUBLISHED_GLOBS = (
+    "summary.md",
+    "provenance.md",
+    "planning/*/rollouts.parquet",
+    "planning/*/best_paths.parquet",
+    "planning/*/redeploy_*.parquet",
+    "planning/summary/*",
+    "validation/*.*",
+    "validation/*/*.parquet",
+    "whitney/*.parquet",
+)
+"""What :func:`publish` copies from a results tree (everything but the recordings and the
+report, which the workflow remakes from these)."""
+
+# (table under a results tree, the columns that name a row, the numbers compared)
+HEADLINE_TABLES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
+    (
+        "planning/summary/robustness.parquet",
+        ("method", "start_std_m"),
+        ("runs", "deploy_success_rate", "deploy_ci_low", "deploy_ci_high", "runs_all_inserted"),
+    ),
+    (
+        "planning/summary/success.parquet",
+        ("method", "dimension", "level"),
+        (
+            "runs",
+            "deploy_success_rate",
+            "deploy_ci_low",
+            "deploy_ci_high",
+            "final_mean_deploy_success_rate",
+            "median_goal_iteration",
+        ),
+    ),
+    (
+        "planning/summary/paired.parquet",
+        ("method", "versus", "dimension", "level"),
+        ("pairs", "better", "worse", "tied", "mean_difference", "sign_test_p"),
+    ),
+    (
+        "validation/comparison.parquet",
+        ("variant", "alignment", "offset"),
+        (
+            "r_f_x",
+            "r_f_z",
+            "rel_err_initial_f_x_pct",
+            "rel_err_final_f_x_pct",
+            "rel_err_initial_f_z_pct",
+            "rel_err_final_f_z_pct",
+            "rel_err_final_theta_pct",
+        ),
+    ),
+)
+
+
+@dataclass(frozen=True)
+class Difference:
+    """One headline number or one run's data that is not the same in the two trees."""
+
+    where: str
+    what: str
+    old: object
+    new: object
+
+    def __str__(self) -> str:
+        return f"{self.where}: {self.what}: {_show(self.old)} -> {_show(self.new)}"
+
+
+def _show(value: object) -> str:
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+
+def _same(a: object, b: object, rtol: float) -> bool:
+    if isinstance(a, float | int) and isinstance(b, float | int):
+        a, b = float(a), float(b)
+        if math.isnan(a) or math.isnan(b):
+            return math.isnan(a) and math.isnan(b)
+        return math.isclose(a, b, rel_tol=rtol, abs_tol=rtol)
+    return a == b
+
+
+def _rows(path: Path, keys: tuple[str, ...], numbers: tuple[str, ...]) -> dict[str, dict]:
+    frame = pd.read_parquet(path)
+    present = [c for c in numbers if c in frame.columns]
+    return {
+        ", ".join(f"{k}={row[k]}" for k in keys if k in frame.columns): {c: row[c] for c in present}
+        for _, row in frame.iterrows()
+    }
+
+
+def headline_differences(old: Path, new: Path, rtol: float) -> Iterator[Difference]:
+    """Every headline number (:data:`HEADLINE_TABLES`) that is missing from one tree or differs."""
+    for table, keys, numbers in HEADLINE_TABLES:
+        paths = old / table, new / table
+        missing = [p for p in paths if not p.is_file()]
+        if missing:
+            if len(missing) == 1:
+                yield Difference(table, "file", *("missing" if p in missing else "present" for p in paths))
+            continue
+        before, after = (_rows(p, keys, numbers) for p in paths)
+        for row in sorted(set(before) | set(after)):
+            if row not in before or row not in after:
+                yield Difference(table, row, "present" if row in before else "missing",
+                                 "present" if row in after else "missing")
+                continue
+            for column in numbers:
+                a, b = before[row].get(column), after[row].get(column)
+                if not _same(a, b, rtol):
+                    yield Difference(table, f"{row}: {column}", a, b)
+
+
+def run_files(tree: Path) -> dict[str, Path]:
+    """The planning runs' data files of a tree, by path relative to it."""
+    planning = tree / "planning"
+    files = [*planning.glob("*/rollouts.parquet"), *planning.glob("*/redeploy_*.parquet")]
+    return {str(f.relative_to(tree)): f for f in sorted(files)}
+
+
+def run_differences(old: Path, new: Path) -> Iterator[Difference]:
+    """Every planning run file whose data (the table, not its provenance) differs or is missing."""
+    before, after = run_files(old), run_files(new)
+    for name in sorted(set(before) | set(after)):
+        if name not in before or name not in after:
+            yield Difference(name, "run file", "present" if name in before else "missing",
+                             "present" if name in after else "missing")
+        elif input_sha256(before[name]) != input_sha256(after[name]):
+            yield Difference(name, "data", "one table", "another")
+
+
+def compare(old: Path, new: Path, rtol: float = 1e-9) -> tuple[list[Difference], int]:
+    """The differences between two result trees and how many items were compared."""
+    for tree in (old, new):
+        if not (tree / "planning").is_dir() and not (tree / "validation").is_dir():
+            raise FileNotFoundError(f"{tree}: not a results tree (no planning/ or validation/)")
+    differences = [*headline_differences(old, new, rtol), *run_differences(old, new)]
+    compared = len(set(run_files(old)) | set(run_files(new)))
+    for table, keys, numbers in HEADLINE_TABLES:
+        if (old / table).is_file():
+            compared += len(_rows(old / table, keys, numbers)) * len(numbers)
+    return differences, compared
+
+
+def publish(results: Path, destination: Path = PUBLISHED_DIR) -> int:
+    """Copy a finished study's outputs (:data:`PUBLISHED_GLOBS`) into ``destination``, replacing
+    what was there; the number of files copied."""
+    files = sorted({f for pattern in PUBLISHED_GLOBS for f in results.glob(pattern) if f.is_file()})
+    if not files:
+        raise FileNotFoundError(f"{results}: no study outputs to publish")
+    if destination.exists():
+        shutil.rmtree(destination)
+    for source in files:
+        target = destination / source.relative_to(results)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(source, target)
+    return len(files)
+
+
+def stale_reasons(
+    published: Path,
+    expected: Mapping[str, Mapping[str, object]],
+    code_sha256: str | None = None,
+) -> list[str]:
+    """Why the published planning runs no longer are what the repository would compute: runs
+    missing or extra against ``expected`` (:func:`point_key` of a sweep point -> its resolved
+    ``scene`` and ``planner`` sections, :func:`pih.study_config.resolved_sections`), a run whose
+    recorded config differs, or whose rollout code (:func:`pih.provenance.rollout_code_hash`)
+    does."""
+    code_sha256 = code_sha256 or rollout_code_hash()
+    runs = {}
+    for path in sorted((published / "planning").glob("*/rollouts.parquet")):
+        runs[point_key(read_provenance(path)["sweep_point"])] = path
+    reasons = [f"sweep point {key} is not published" for key in sorted(set(expected) - set(runs))]
+    reasons += [
+        f"{runs[key].parent.name} is not a sweep point of the config"
+        for key in sorted(set(runs) - set(expected))
+    ]
+    for key in sorted(set(runs) & set(expected)):
+        path = runs[key]
+        for data in [path, *sorted(path.parent.glob("redeploy_*.parquet"))]:
+            if read_provenance(data).get("rollout_code_sha256") != code_sha256:
+                reasons.append(f"{data.relative_to(published)}: made by other rollout code")
+        recorded = read_provenance(path)["config"]
+        for section in ("scene", "planner"):
+            now = json.loads(canonical_json(expected[key][section]))
+            if recorded.get(section) != now:
+                keys = ", ".join(_differing_keys(recorded.get(section) or {}, now))
+                reasons.append(f"{path.parent.name}: its {section} config differs in {keys}")
+    return reasons
+
+
+def point_key(point: Mapping[str, object]) -> str:
+    """A sweep point as one comparable string."""
+    return canonical_json(dict(point))
+
+
+def _differing_keys(old: Mapping, new: Mapping, prefix: str = "") -> list[str]:
+    keys = []
+    for key in sorted(set(old) | set(new)):
+        a, b = old.get(key), new.get(key)
+        if isinstance(a, Mapping) and isinstance(b, Mapping):
+            keys += _differing_keys(a, b, f"{prefix}{key}.")
+        elif a != b:
+            keys.append(f"{prefix}{key}")
+    return keys

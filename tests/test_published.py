@@ -1,0 +1,143 @@
+"""The published default study: stale-result detection, and pih compare (a fresh study against
+the published one, number by number)."""
+
+import shutil
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from pih.__main__ import main
+from pih.published import PUBLISHED_DIR, compare, point_key, stale_reasons
+
+
+def tree(root):
+    """A small results tree: the robustness and paired tables and two runs' data."""
+    summary = root / "planning" / "summary"
+    summary.mkdir(parents=True)
+    pd.DataFrame(
+        {
+            "method": ["bilevel/deepest_explored", "one_level"],
+            "start_std_m": [0.001, 0.001],
+            "runs": [11, 11],
+            "deploy_success_rate": [0.8, 0.2],
+            "deploy_ci_low": [0.5, 0.05],
+            "deploy_ci_high": [0.94, 0.5],
+            "runs_all_inserted": [6, 0],
+        }
+    ).to_parquet(summary / "robustness.parquet")
+    pd.DataFrame(
+        {
+            "method": ["bilevel/deepest_explored"],
+            "versus": ["one_level"],
+            "dimension": ["all"],
+            "level": ["all"],
+            "pairs": [11],
+            "better": [9],
+            "worse": [0],
+            "tied": [2],
+            "mean_difference": [0.6],
+            "sign_test_p": [0.0039],
+        }
+    ).to_parquet(summary / "paired.parquet")
+    for run in ("start~-0.04_seed~0", "start~-0.03_seed~0"):
+        (root / "planning" / run).mkdir()
+        pd.DataFrame({"phase": ["deploy"], "success": [True]}).to_parquet(
+            root / "planning" / run / "rollouts.parquet"
+        )
+    return root
+
+
+def test_identical_trees_reproduce(tmp_path, capsys):
+    old = tree(tmp_path / "old")
+    new = tmp_path / "new"
+    shutil.copytree(old, new)
+    differences, compared = compare(old, new)
+    assert differences == [] and compared == 2 + 2 * 5 + 6
+    assert main(["compare", str(old), str(new)]) == 0
+    assert "0 of 18 compared items differ" in capsys.readouterr().out
+
+
+def test_a_changed_number_or_run_is_named(tmp_path, capsys):
+    old = tree(tmp_path / "old")
+    new = tmp_path / "new"
+    shutil.copytree(old, new)
+    robustness = new / "planning" / "summary" / "robustness.parquet"
+    pd.read_parquet(robustness).assign(deploy_success_rate=[0.7, 0.2]).to_parquet(robustness)
+    run = new / "planning" / "start~-0.03_seed~0" / "rollouts.parquet"
+    pd.DataFrame({"phase": ["deploy"], "success": [False]}).to_parquet(run)
+    (new / "planning" / "start~-0.04_seed~0" / "rollouts.parquet").unlink()
+    assert main(["compare", str(old), str(new)]) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert (
+        "planning/summary/robustness.parquet: method=bilevel/deepest_explored, "
+        "start_std_m=0.001: deploy_success_rate: 0.8 -> 0.7" in out
+    )
+    assert "planning/start~-0.03_seed~0/rollouts.parquet: data: one table -> another" in out
+    assert "planning/start~-0.04_seed~0/rollouts.parquet: run file: present -> missing" in out
+    assert out[-1].startswith("3 of ") and "NOT reproduced" in out[-1]
+    # A tolerance admits a small difference in numbers (not in run data).
+    pd.read_parquet(robustness).assign(deploy_success_rate=[0.8 + 1e-12, 0.2]).to_parquet(
+        robustness
+    )
+    differences, _ = compare(old, new)
+    assert all("robustness" not in d.where for d in differences)
+
+
+def test_a_tree_that_is_not_one_is_one_line(tmp_path, capsys):
+    assert main(["compare", str(tmp_path), str(tmp_path / "nope")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a results tree" in err[0]
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def expected_runs(config_files):
+    """What the repository's config would run: sweep point -> resolved scene and planner."""
+    from pih.study_config import load_config, resolved_sections, sweep_points
+
+    config = load_config(config_files)
+    points = sweep_points(config["sweep"], config.get("variants"), config["planner"]["method"])
+    return {point_key(p): resolved_sections(config, p) for p in points}
+
+
+def test_stale_published_runs_are_named(tmp_path):
+    from pih.outputs import write_table
+    from pih.provenance import record
+
+    expected = {
+        point_key(p): {"scene": {"solver": {"time_step_s": 0.001}}, "planner": {"seed": p["s"]}}
+        for p in ({"s": 0}, {"s": 1})
+    }
+    rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
+    for seed in (0, 1):
+        point = {"s": seed}
+        provenance = record("plan", point=point, config=expected[point_key(point)])
+        path = tmp_path / "planning" / f"s~{seed}" / "rollouts.parquet"
+        path.parent.mkdir(parents=True)
+        write_table(rows, path, provenance, {"phase": ("", "phase"), "success": ("1", "inserted")})
+    assert stale_reasons(tmp_path, expected) == []
+    # Other rollout code, a changed config value, a run the config no longer has, one missing.
+    assert stale_reasons(tmp_path, expected, code_sha256="0" * 64) == [
+        "planning/s~0/rollouts.parquet: made by other rollout code",
+        "planning/s~1/rollouts.parquet: made by other rollout code",
+    ]
+    changed = {**expected, point_key({"s": 1}): {"scene": {"solver": {"time_step_s": 0.002}},
+                                                  "planner": {"seed": 1}}}
+    assert stale_reasons(tmp_path, changed) == [
+        "s~1: its scene config differs in solver.time_step_s"
+    ]
+    fewer = {point_key({"s": 0}): expected[point_key({"s": 0})], point_key({"s": 2}): {}}
+    assert stale_reasons(tmp_path, fewer) == [
+        'sweep point {"s":2} is not published',
+        "s~1 is not a sweep point of the config",
+    ]
+
+
+@pytest.mark.skipif(
+    not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study in this checkout"
+)
+def test_the_published_study_is_what_the_config_and_code_compute():
+    reasons = stale_reasons(ROOT / PUBLISHED_DIR, expected_runs([str(ROOT / "config/config.yaml")]))
+    assert reasons == [], "published/default is stale: " + "; ".join(reasons[:10])
