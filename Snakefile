@@ -24,13 +24,20 @@ os.environ.setdefault("LD_PRELOAD", preloaded_allocator())
 
 from pih.study_config import load_config_file, stop_on_config_error
 
+# The default study's config, found beside this Snakefile: `snakemake -s REPO/Snakefile -d DIR`
+# runs a study in its own working directory DIR (docs/workflow.md); named relative to the working
+# directory when it is below it.
+DEFAULT_CONFIG = os.path.join(workflow.basedir, "config", "config.yaml")
+if not os.path.relpath(DEFAULT_CONFIG).startswith(".."):
+    DEFAULT_CONFIG = os.path.relpath(DEFAULT_CONFIG)
+
 # Snakemake's own message for a YAML syntax error names neither the file nor the line. Every
 # config error is one line (`config error: KEY: ...`), before any job (common.smk).
 with stop_on_config_error():
-    load_config_file("config/config.yaml")
+    load_config_file(DEFAULT_CONFIG)
 
 
-configfile: "config/config.yaml"
+configfile: DEFAULT_CONFIG
 
 
 report: "workflow/report/workflow.rst"

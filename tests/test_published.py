@@ -141,3 +141,59 @@ def test_stale_published_runs_are_named(tmp_path):
 def test_the_published_study_is_what_the_config_and_code_compute():
     reasons = stale_reasons(ROOT / PUBLISHED_DIR, expected_runs([str(ROOT / "config/config.yaml")]))
     assert reasons == [], "published/default is stale: " + "; ".join(reasons[:10])
+
+
+def test_readme_results_are_generated_from_the_published_tables(tmp_path):
+    from pih.outputs import write_table
+    from pih.provenance import record
+    from pih.published import README_BEGIN, README_END, readme_with_results, results_block
+
+    summary = tmp_path / "planning" / "summary"
+    summary.mkdir(parents=True)
+    provenance = record("planning_aggregate")
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_summary import _robustness, _success
+
+    def units(frame):
+        return {c: ("1", c) for c in frame.columns}
+
+    paired = pd.DataFrame(
+        {
+            "method": ["bilevel/deepest_explored"] * 2,
+            "dimension": ["all", "start_std_m"],
+            "level": ["all", "0.001"],
+            "versus": ["one_level"] * 2,
+            "pairs": [11, 11],
+            "better": [9, 8],
+            "worse": [0, 1],
+            "tied": [2, 2],
+            "mean_difference": [0.6, 0.5],
+            "sign_test_p": [0.0039, 0.039],
+        }
+    )
+    for name, frame in (("success", _success()), ("robustness", _robustness()), ("paired", paired)):
+        write_table(frame, summary / f"{name}.parquet", provenance, units(frame))
+    block = results_block(tmp_path)
+    assert block.startswith(README_BEGIN) and block.endswith(README_END)
+    assert "0.80 (0.50–0.95)" in block  # the headline from offset starts
+    assert "| bilevel/deepest_explored | one_level | 11 | 8 | 1 | 2 | 0.5 | 0.039 |" in block
+    readme = f"# pih\n\n## Results\n\n{README_BEGIN}\nold\n{README_END}\n\nafter\n"
+    updated = readme_with_results(readme, block)
+    assert "old" not in updated and block in updated and updated.endswith("after\n")
+    assert readme_with_results(updated, block) == updated
+
+
+def test_readme_reports_only_published_numbers():
+    """README's results block is exactly what the published tables generate; without a
+    published study it says so and holds no table."""
+    from pih.published import README_BEGIN, README_END, results_block
+
+    readme = (ROOT / "README.md").read_text()
+    start, end = readme.index(README_BEGIN), readme.index(README_END) + len(README_END)
+    if (ROOT / PUBLISHED_DIR).is_dir():
+        assert readme[start:end] == results_block(ROOT / PUBLISHED_DIR)
+    else:
+        assert readme[start:end] == f"{README_BEGIN}\n{README_END}"
+        assert "No published results yet" in readme

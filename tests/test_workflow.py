@@ -83,10 +83,12 @@ def test_default_config_dry_run_lists_the_full_study(tmp_path):
     jobs = planned_jobs(snakemake(work, "-n"))
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     n_points = math.prod(len(levels) for levels in config["sweep"].values())
-    # One-level runs are made once per (start, seed), not once per outer rule.
-    assert n_points == 11 * 2 * 2 * 5
-    assert jobs["plan"] == 11 * (1 + 2) * 5
-    assert jobs["validation_run"] == 4 * len(config["validation"]["variants"])
+    # The paper's 11 starts, one seed; one-level runs are made once per (start, seed), not once
+    # per outer rule: 33 runs, each redeployed once per robustness level.
+    assert n_points == 11 * 2 * 2 * 1
+    assert jobs["plan"] == 11 * (1 + 2)
+    assert jobs["redeploy"] == jobs["plan"] * len(config["robustness"]["start_std_m"])
+    assert jobs["validation_run"] == 4 * len(config["validation"]["variants"]) == 12
     assert jobs["whitney_curve"] == 4
     assert jobs["validation_variants"] == jobs["validation_compare"] == 1
 
@@ -257,7 +259,7 @@ def test_smoke_study_outputs_carry_provenance(smoke_run):
     assert read_output_provenance(results / "provenance.md")["step"] == "provenance_index"
     summary = (results / "summary.md").read_text()
     assert "from the training start" in summary and "0.9954" in summary
-    assert "Study: `config/config.yaml`, `config/smoke.yaml`; budget 3 iterations × 4" in summary
+    assert "Study: `config/config.yaml`, `test-config.yaml`; budget 3 iterations × 4" in summary
     assert "Not the default study" in summary
     success = pd.read_parquet(results / "planning" / "summary" / "success.parquet")
     assert set(success[success["dimension"] == "all"]["method"]) == {

@@ -27,6 +27,9 @@
 - ``pih publish [RESULTS]``: copy a finished default study's outputs (data, tables, figures,
   provenance; not the recordings) into ``published/default``, the files README's numbers come
   from;
+- ``pih status [DIR] [--configfile F ...]``: a study's progress, from the files in its working
+  directory ``DIR`` (default ``.``): planning and validation runs done, running (with their
+  iteration) and pending, and the time left (:mod:`pih.status`);
 - ``pih schema``: the JSON schema of the study's config;
 - ``pih job TARGET [--configfile F ...]``: run the workflow script that makes ``TARGET`` in this
   process, outside Snakemake, for debugging (``python -m pdb -m pih job TARGET``).
@@ -149,6 +152,16 @@ def main(argv: list[str] | None = None) -> int:
         "publish", help="copy a finished default study into published/default (README's source)"
     )
     publish.add_argument("results", type=Path, nargs="?", default=Path("results"))
+    watch = commands.add_parser(
+        "status", help="a study's progress: runs done, running and pending, and the time left"
+    )
+    watch.add_argument(
+        "study", type=Path, nargs="?", default=Path("."), help="its working directory (default .)"
+    )
+    watch.add_argument(
+        "--configfile", nargs="+", default=[], help="the study's config files, as for snakemake"
+    )
+    watch.add_argument("--jobs", type=int, help="jobs in parallel (default: as many as run, ≥ 2)")
     job = commands.add_parser("job", help="run the workflow script that makes TARGET, here")
     job.add_argument(
         "target", help="an output path, e.g. results/validation/point/offset_m~0.001.parquet"
@@ -157,6 +170,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.command == "job":
         return _job(args.target, args.configfile)
+    if args.command == "status":
+        return _status(args.study, args.configfile, args.jobs)
     if args.command == "show":
         return _show(args.file)
     if args.command == "plot":
@@ -168,14 +183,16 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "aggregate":
         return _aggregate(args.paths, args.output_dir, args.reference_variant)
     if args.command == "publish":
-        from pih.published import PUBLISHED_DIR, publish
+        from pih.published import PUBLISHED_DIR, publish, readme_with_results, results_block
 
         try:
             copied = publish(args.results)
         except OSError as error:
             print(f"pih publish: {_first_line(error)}", file=sys.stderr)
             return 1
-        print(f"{PUBLISHED_DIR}: {copied} files from {args.results}")
+        readme = Path("README.md")
+        readme.write_text(readme_with_results(readme.read_text(), results_block(PUBLISHED_DIR)))
+        print(f"{PUBLISHED_DIR}: {copied} files from {args.results}; README.md's results table")
         return 0
     if args.command == "compare":
         return _compare(args.old, args.new, args.rtol)
@@ -661,6 +678,34 @@ def _aggregate(paths: list[Path], output_dir: Path, reference_variant: str | Non
         print(tables.paired[tables.paired["dimension"].isin(["all", "start_std_m", "variant"])])
         print(tables.robustness)
     print(output_dir)
+    return 0
+
+
+def _status(study: Path, configfiles: list[str], jobs: int | None) -> int:
+    """One progress line per kind of run of the study in ``study`` (:mod:`pih.status`). Its
+    config: ``config/config.yaml`` (here, else in ``study``, else in pih's checkout) with
+    ``configfiles`` merged on; without ``configfiles``, those of the latest Snakemake run in
+    ``study`` (its log in ``.snakemake/log/``), else the default config alone."""
+    from pih.status import logged_configfiles, study_status
+
+    if not study.is_dir():
+        print(f"pih status: no such directory: {study}{_did_you_mean(study)}", file=sys.stderr)
+        return 1
+    # Without --configfile: the config files of the latest Snakemake run there. A study run in
+    # its own directory (snakemake -s REPO/Snakefile) has the default config in pih's checkout.
+    files = None if configfiles else logged_configfiles(study)
+    if files is None:
+        checkout = Path(__file__).resolve().parents[2]
+        places = [Path("config"), study / "config", checkout / "config"]
+        default = next((p / "config.yaml" for p in places if (p / "config.yaml").is_file()), None)
+        if default is None:
+            raise FileNotFoundError(
+                "no config/config.yaml here, in the study directory or in pih's checkout; run "
+                "pih status in the workflow's directory (pih status STUDY_DIR --configfile ...)"
+            )
+        files = [str(default), *configfiles]
+    for line in study_status(study, files, jobs):
+        print(line)
     return 0
 
 

@@ -232,3 +232,42 @@ def _differing_keys(old: Mapping, new: Mapping, prefix: str = "") -> list[str]:
         elif a != b:
             keys.append(f"{prefix}{key}")
     return keys
+
+
+README_BEGIN, README_END = "<!-- PUBLISHED-RESULTS -->", "<!-- /PUBLISHED-RESULTS -->"
+
+
+def results_block(published: Path) -> str:
+    """README's results table, generated from the published study's summary tables: the
+    headline per method (:func:`pih.summary.planning_rows`) and its paired comparisons."""
+    from pih.outputs import markdown_table
+    from pih.summary import paired_rows, perturbed_pairs, planning_rows
+
+    tables = published / "planning" / "summary"
+    success, robustness, paired = (
+        pd.read_parquet(tables / f"{name}.parquet") for name in ("success", "robustness", "paired")
+    )
+    record = read_provenance(tables / "success.parquet")
+    source = (
+        f"The published default study (`{PUBLISHED_DIR}/`, code `{record['code_version']}`, "
+        f"{record['created_utc'][:10]}); deployment success, 95 % interval over runs:"
+    )
+    return "\n\n".join(
+        [
+            README_BEGIN,
+            source,
+            markdown_table(planning_rows(success, robustness), "{:.3g}"),
+            "Paired from offset starts (sign test over the untied pairs):",
+            markdown_table(perturbed_pairs(paired, robustness), "{:.3g}"),
+            "Paired from the training start:",
+            markdown_table(paired_rows(paired), "{:.3g}"),
+            README_END,
+        ]
+    )
+
+
+def readme_with_results(readme: str, block: str) -> str:
+    """``readme`` with the text between the results markers replaced by ``block``."""
+    start, end = readme.index(README_BEGIN), readme.find(README_END)
+    end = end + len(README_END) if end >= 0 else start + len(README_BEGIN)
+    return readme[:start] + block + readme[end:]

@@ -70,14 +70,20 @@ REDEPLOYMENTS = expand(
     std=ROBUSTNESS_STDS,
 )
 
-# What results/summary.md says it summarises.
+# What results/summary.md says it summarises: the default config first, then the user's.
+USER_CONFIGFILES = [os.path.abspath(f) for f in workflow.overwrite_configfiles or []]
 STUDY = {
-    "config_files": list(
-        dict.fromkeys(
-            os.path.relpath(f, workflow.basedir)
-            for f in [*workflow.configfiles, *(workflow.overwrite_configfiles or [])]
-        )
-    ),
+    "config_files": [
+        os.path.relpath(f, workflow.basedir)
+        for f in [
+            *(
+                f
+                for f in map(os.path.abspath, workflow.configfiles)
+                if f not in USER_CONFIGFILES
+            ),
+            *USER_CONFIGFILES,
+        ]
+    ],
     "default": not workflow.overwrite_configfiles,
     "iterations": config["planner"]["iterations"],
     "rollouts_per_iteration": config["planner"]["optimizer"]["population_size"],
