@@ -442,3 +442,13 @@ def test_run_figure_titles_every_panel_counts_whole_iterations_and_names_only_wh
             ticks = [t for t in ax.get_xticks() if ax.get_xlim()[0] <= t <= ax.get_xlim()[1]]
             assert ticks and all(float(t).is_integer() for t in ticks), ticks
         assert "(" in ax.get_ylabel()  # a unit, or "dimensionless"
+
+
+def test_help_is_a_short_list_of_commands(capsys):
+    with pytest.raises(SystemExit) as exited:
+        main(["--help"])
+    assert exited.value.code == 0
+    out = capsys.readouterr().out
+    assert "``" not in out and len(out.splitlines()) <= 40
+    for command in ("show", "replay", "compare", "publish", "status", "aggregate"):
+        assert f"    {command} " in out

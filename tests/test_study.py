@@ -121,6 +121,10 @@ def test_bands_and_success_table_per_method_and_dimension():
     assert overall.loc["b", "runs_repeating_training"] == 0
     seed_one = table[(table["dimension"] == "planner.seed") & (table["level"] == "1")]
     assert seed_one["method"].tolist() == ["a"] and seed_one["runs"].tolist() == [1]
+    # A dimension with one level would only repeat the overall rows: it gets none.
+    one_seed = summaries.assign(**{"planner.seed": "0"})
+    dimensions = success_table(one_seed, ["planner.method", "planner.seed"])["dimension"]
+    assert set(dimensions) == {"all"}
     # The ablation table pools the replicates (seeds, starts) and keeps the compared dimensions.
     dims = pd.DataFrame({"dimension": ["all", "planner.seed", "variant", "planner.start_x_m"]})
     assert ablation_table(dims)["dimension"].tolist() == ["all", "variant"]

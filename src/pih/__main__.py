@@ -81,7 +81,11 @@ def _describe(error: Exception) -> str:
 
 @_one_line_errors
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="pih", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="pih",
+        description="Look at, replay, compare and pool the outputs of a pih study "
+        "(docs/workflow.md). `pih COMMAND --help` describes each command.",
+    )
     commands = parser.add_subparsers(dest="command", required=True)
     show = commands.add_parser("provenance", help="print the provenance record of output files")
     show.add_argument("files", nargs="+", type=Path, help="Parquet outputs (or .rrd recordings)")
@@ -96,7 +100,9 @@ def main(argv: list[str] | None = None) -> int:
     plot = commands.add_parser("plot", help="cost curve and best paths of one planning run")
     plot.add_argument("run", type=Path, help="a results/planning/<sweep point>/ directory")
     plot.add_argument("--output", type=Path, help="the PNG to write (default RUN_DIR/run.png)")
-    replay = commands.add_parser("replay", help="simulate one recorded rollout again, to Rerun")
+    replay = commands.add_parser(
+        "replay", help="simulate recorded rollouts again (one line each; the first to Rerun)"
+    )
     replay.add_argument("run", type=Path, help="a results/planning/<sweep point>/ directory")
     replay.add_argument(
         "query",
@@ -108,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="replay under other physics, e.g. --set scene.solver.time_step_s=0.0005 (repeatable)",
+        help="replay under other physics, e.g. --set scene.solver.time_step_s=0.00025 (repeatable)",
     )
     replay.add_argument(
         "--output",

@@ -346,9 +346,12 @@ def level_columns(sweep_keys: list[str]) -> dict[str, tuple[str, str]]:
 
 
 def _by_dimension(frame: pd.DataFrame, sweep_keys: list[str], table) -> pd.DataFrame:
-    """``table(part)`` per method overall and per method × level of every other dimension."""
+    """``table(part)`` per method overall and per method × level of every other dimension that
+    has more than one level (a single level's rows would repeat the overall ones)."""
     parts = [table(frame).assign(dimension="all", level="all")]
     for key in split_keys(sweep_keys):
+        if frame[key].nunique() < 2:
+            continue
         parts += [
             table(part).assign(dimension=key, level=level) for level, part in frame.groupby(key)
         ]
