@@ -17,8 +17,9 @@ import time
 
 import numpy as np
 
-from pih.scene import PegInHoleScene, RobotTrajectory
+from pih.scene import PegInHoleScene
 from pih.scene_config import SceneConfig
+from pih.trace import RobotTrajectory
 
 
 def planning_rollout(scene: PegInHoleScene, duration_s: float = 3.5) -> RobotTrajectory:

@@ -28,9 +28,10 @@ from snakemake.utils import update_config
 
 from pih.planner import Planner
 from pih.planner_config import OuterConfig, PlannerConfig, replace
-from pih.scene import PegInHoleScene, RobotTrajectory, Trace
+from pih.scene import PegInHoleScene
 from pih.scene_config import SceneConfig
 from pih.study_config import load_yaml_strictly, scene_with
+from pih.trace import RobotTrajectory, Trace
 
 
 def scene_variants(configfiles: list[str]) -> tuple[SceneConfig, dict[str, SceneConfig]]:

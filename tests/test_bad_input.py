@@ -330,7 +330,7 @@ import sys
 import numpy as np
 from pih.outputs import write_text
 from pih.recordings import record_insertion
-from pih.scene import Trace
+from pih.trace import Trace
 from pih.scene_config import SceneConfig
 
 write_text("results/done.md", "a finished output\\n")

@@ -21,7 +21,7 @@ from pih.outputs import (
     write_trace,
 )
 from pih.provenance import file_sha256, input_sha256
-from pih.scene import RobotTrajectory
+from pih.trace import RobotTrajectory
 
 RECORD = provenance.record("job", config={"a": 1})
 

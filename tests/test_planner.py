@@ -417,7 +417,7 @@ def test_inserted_is_judged_by_the_sensed_depth_only():
 
 
 def _trace_at(poses: np.ndarray, overlap: float = 0.0):
-    from pih.scene import Trace
+    from pih.trace import Trace
 
     n = len(poses)
     zeros = np.zeros((n, 3))

@@ -7,8 +7,8 @@ import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
 from pih.recordings import SCENE, record_insertion, record_planning
-from pih.scene import Trace
 from pih.scene_config import SceneConfig
+from pih.trace import Trace
 
 
 def _chunks(path) -> dict[str, list]:

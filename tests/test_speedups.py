@@ -18,7 +18,8 @@ ROLLOUT = """
 import hashlib, json, sys
 import numpy as np
 from pih.provenance import allocator
-from pih.scene import PegInHoleScene, RobotTrajectory
+from pih.scene import PegInHoleScene
+from pih.trace import RobotTrajectory
 from pih.scene_config import SceneConfig
 scene = PegInHoleScene(SceneConfig().replace(solver__sampled_output_ports=sys.argv[1] == "1"))
 hole = scene.config.hole

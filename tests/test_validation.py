@@ -4,10 +4,9 @@ import numpy as np
 import pytest
 
 from pih import whitney
-from pih.scene import Trace
 from pih.scene_config import SceneConfig
+from pih.trace import Trace
 from pih.validation import (
-    ValidationConfig,
     choose_variants,
     compare,
     comparison_table,
@@ -15,6 +14,7 @@ from pih.validation import (
     to_whitney_frame,
     whitney_params,
 )
+from pih.validation_config import ValidationConfig
 
 SCENE = SceneConfig()
 CONFIG = ValidationConfig(final_depth_m=0.03)
@@ -124,7 +124,8 @@ def test_real_insertion_matches_whitney_in_shape():
     """Regression check on the physics: the default scene, a straight-down insertion at 1 mm
     offset at the validation's quasi-static 2 mm/s, to 12 mm depth."""
     from pih.scene import PegInHoleScene
-    from pih.validation import run_insertion, validation_scene_config
+    from pih.validation import run_insertion
+    from pih.validation_config import validation_scene_config
 
     config = ValidationConfig(
         speed_m_per_s=0.002, robot_depth_m=0.02, hole_depth_m=0.03, final_depth_m=0.012

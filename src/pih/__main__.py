@@ -30,7 +30,8 @@
 - ``pih status [DIR] [--configfile F ...]``: a study's progress, from the files in its working
   directory ``DIR`` (default ``.``): planning and validation runs done, running (with their
   iteration) and pending, and the time left (:mod:`pih.status`);
-- ``pih schema``: the JSON schema of the study's config;
+- ``pih schema [--markdown]``: the JSON schema of the study's config (or
+  docs/configuration.md, every key's type, default and description);
 - ``pih job TARGET [--configfile F ...]``: run the workflow script that makes ``TARGET`` in this
   process, outside Snakemake, for debugging (``python -m pdb -m pih job TARGET``).
 
@@ -90,7 +91,12 @@ def main(argv: list[str] | None = None) -> int:
     show = commands.add_parser("provenance", help="print the provenance record of output files")
     show.add_argument("files", nargs="+", type=Path, help="Parquet outputs (or .rrd recordings)")
     show.add_argument("--key", help="print only this top-level key")
-    commands.add_parser("schema", help="print the JSON schema of config/config.yaml")
+    schema = commands.add_parser("schema", help="print the JSON schema of config/config.yaml")
+    schema.add_argument(
+        "--markdown",
+        action="store_true",
+        help="print docs/configuration.md instead: every key's type, default and description",
+    )
     look = commands.add_parser(
         "show",
         help="what an output holds (columns and rows, first lines, figure size, recording "
@@ -203,9 +209,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "compare":
         return _compare(args.old, args.new, args.rtol)
     if args.command == "schema":
-        from pih.study_config import config_schema
+        from pih.study_config import config_markdown, config_schema
 
-        print(json.dumps(config_schema(), indent=2))
+        schema_json = json.dumps(config_schema(), indent=2) + "\n"
+        print(config_markdown() if args.markdown else schema_json, end="")
         return 0
 
     status = 0

@@ -139,6 +139,19 @@ def recorded_config(cls: type[T], config: Mapping[str, Any], key: str) -> T:
     return from_mapping(cls, with_defaults(cls, config[key]), key)
 
 
+def described(
+    default: Any = dataclasses.MISSING,
+    description: str = "",
+    *,
+    default_factory: Any = dataclasses.MISSING,
+) -> Any:
+    """A config dataclass field with what its key means: :func:`json_schema` gives it as the
+    key's ``description``, and docs/configuration.md (:func:`markdown_tables`) shows it."""
+    return dataclasses.field(
+        default=default, default_factory=default_factory, metadata={"description": description}
+    )
+
+
 def to_mapping(obj: Any) -> dict[str, Any]:
     """Plain nested dict (tuples as lists) of a config dataclass, the inverse of from_mapping."""
     return json.loads(json.dumps(dataclasses.asdict(obj)))
@@ -150,14 +163,17 @@ def json_schema(tp: Any) -> dict[str, Any]:
     origin = get_origin(tp)
     if dataclasses.is_dataclass(tp):
         hints = typing.get_type_hints(tp)
-        names = [f.name for f in dataclasses.fields(tp) if f.init]
-        doc = (tp.__doc__ or "").strip()
-        generated = doc.startswith(f"{tp.__name__}(")  # dataclass's own signature docstring
+        fields = [f for f in dataclasses.fields(tp) if f.init]
+        properties = {}
+        for f in fields:
+            properties[f.name] = json_schema(hints[f.name])
+            if f.metadata.get("description"):
+                properties[f.name]["description"] = f.metadata["description"]
         return {
             "type": "object",
-            "description": tp.__name__ if generated or not doc else doc.splitlines()[0],
-            "properties": {name: json_schema(hints[name]) for name in names},
-            "required": names,
+            "description": _summary(tp),
+            "properties": properties,
+            "required": [f.name for f in fields],
             "additionalProperties": False,
         }
     if origin is Literal:
@@ -183,3 +199,81 @@ def json_schema(tp: Any) -> dict[str, Any]:
     if tp in simple:
         return {"type": simple[tp]}
     raise TypeError(f"no JSON schema for {tp!r}")
+
+
+def _summary(cls: type) -> str:
+    """The first line of a config dataclass's docstring, else its name."""
+    doc = (cls.__doc__ or "").strip()
+    generated = doc.startswith(f"{cls.__name__}(")  # dataclass's own signature docstring
+    return cls.__name__ if generated or not doc else doc.splitlines()[0]
+
+
+def markdown_tables(cls: type, key: str, level: int = 2) -> str:
+    """docs/configuration.md's part for config dataclass ``cls`` at dotted ``key``: a heading and
+    a table of its keys (type, default, description), then one such part per nested section."""
+    hints = typing.get_type_hints(cls)
+    defaults = to_mapping(cls())
+    rows, nested = [], []
+    for f in dataclasses.fields(cls):
+        if not f.init:
+            continue
+        if dataclasses.is_dataclass(hints[f.name]):
+            nested.append(markdown_tables(hints[f.name], f"{key}.{f.name}", level + 1))
+            rows.append((f.name, "section", "", f"see `{key}.{f.name}` below"))
+            continue
+        schema = json_schema(hints[f.name])
+        rows.append(
+            (
+                f.name,
+                markdown_type(schema),
+                f"`{_yaml_text(defaults[f.name])}`",
+                f.metadata.get("description", ""),
+            )
+        )
+    table = ["| key | type | default | description |", "|---|---|---|---|"]
+    table += [
+        f"| `{name}` | {kind} | {default} | {_cell(text)} |" for name, kind, default, text in rows
+    ]
+    part = f"{'#' * level} `{key}`\n\n{_summary(cls)}\n\n" + "\n".join(table) + "\n"
+    return "\n".join([part, *nested])
+
+
+def markdown_type(schema: Mapping[str, Any]) -> str:
+    """A key's JSON schema as the type column of docs/configuration.md."""
+    if "enum" in schema:
+        return " \\| ".join(f"`{_yaml_text(v)}`" for v in schema["enum"])
+    kind = schema.get("type")
+    if kind == "array" and "prefixItems" in schema:
+        return "[" + ", ".join(markdown_type(item) for item in schema["prefixItems"]) + "]"
+    if kind == "array":
+        return f"list of {markdown_type(schema['items'])}"
+    if kind == "object":
+        inner = schema.get("additionalProperties")
+        if isinstance(inner, Mapping) and inner.get("type") == "object":
+            return "mapping of names to mappings"
+        return "mapping"
+    if isinstance(kind, list):
+        return " or ".join(kind)
+    return str(kind)
+
+
+def _yaml_text(value: Any) -> str:
+    """A default as a config file writes it (YAML flow style): names bare, small and large
+    numbers as ``2.0e+10`` (YAML 1.1, PyYAML's, reads ``2e10`` as a string)."""
+    if isinstance(value, bool) or value is None:
+        return json.dumps(value)
+    if isinstance(value, float) and value != 0 and not 1e-3 <= abs(value) < 1e5:
+        mantissa, exponent = f"{value:.15e}".split("e")
+        mantissa = mantissa.rstrip("0")
+        short = f"{mantissa}{'0' if mantissa.endswith('.') else ''}e{int(exponent):+d}"
+        return short if float(short) == value else repr(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_yaml_text(v) for v in value) + "]"
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{k}: {_yaml_text(v)}" for k, v in value.items()) + "}"
+    return str(value) if isinstance(value, str) else repr(value)
+
+
+def _cell(text: str) -> str:
+    """Text for one Markdown table cell: one line, ``|`` escaped."""
+    return " ".join(text.split()).replace("|", "\\|")

@@ -37,7 +37,7 @@ from numbers import Integral
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pih.config import require, require_positive
+from pih.config import described, require, require_positive
 
 N_DOF = 3
 MAX_STEP_S = 1e-3
@@ -48,12 +48,16 @@ MAX_STEP_S = 1e-3
 class DmpConfig:
     """DMP hyper-parameters (Appendix B); gains refer to eq. A3, ``alpha_s`` to the phase s."""
 
-    n_basis: int = 10
-    alpha: float = 25.0
-    beta: float = 6.25
-    alpha_s: float = 4.0
-    duration_s: float = 3.0  # T; not in the paper (docs/planner.md)
-    min_amplitude: tuple[float, float, float] = (0.01, 0.01, 0.1)
+    n_basis: int = described(10, "Gaussian basis functions per DoF (eq. A5–A6)")
+    alpha: float = described(25.0, "the gain α of eq. A3")
+    beta: float = described(6.25, "the gain β of eq. A3")
+    alpha_s: float = described(4.0, "the phase's decay α_s: s(T) = exp(−α_s)")
+    duration_s: float = described(3.0, "the duration T (not in the paper; docs/planner.md)")
+    min_amplitude: tuple[float, float, float] = described(
+        (0.01, 0.01, 0.1),
+        "per DoF (m, m, rad), the least forcing amplitude: a_d = max(|g_d − q0_d|, "
+        "min_amplitude_d), so the forcing is not switched off when start equals goal",
+    )
 
     def __post_init__(self) -> None:
         # Accept any sequence (e.g. a YAML list) but store a tuple: the config must stay hashable.

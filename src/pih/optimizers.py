@@ -19,7 +19,7 @@ from typing import Protocol
 import cma
 import numpy as np
 
-from pih.config import require, require_positive
+from pih.config import described, require, require_positive
 
 OPTIMIZER_NAMES = ("elite_averaging", "cma_es")
 
@@ -50,12 +50,24 @@ class Optimizer(Protocol):
 class OptimizerConfig:
     """Optimizer choice and hyper-parameters (r, n and sigma_W of eq. 12-13)."""
 
-    name: str = "elite_averaging"
-    population_size: int = 10
-    elite_fraction: float = 0.3
-    sigma: float = 0.3  # pih.dmp weights shift the attractor by this fraction of the amplitude
-    sigma_decay: float = 1.0
-    seed: int = 0
+    name: str = described(
+        "elite_averaging", "elite_averaging (paper eq. 12–13) or cma_es (pycma's CMA-ES)"
+    )
+    population_size: int = described(10, "r, the rollouts per iteration (paper §3.2)")
+    elite_fraction: float = described(
+        0.3, "n, the fraction of the rollouts averaged as elites: ceil(n r) of them (eq. 13)"
+    )
+    sigma: float = described(
+        0.3,
+        "σ_W, the initial exploration scale of the weights (a pih.dmp weight shifts the "
+        "attractor by that fraction of the amplitude)",
+    )
+    sigma_decay: float = described(1.0, "σ is multiplied by this after every iteration")
+    seed: int = described(
+        0,
+        "a second seed: with planner.seed and the run's sweep levels it seeds the run's streams "
+        "(pih.planner.run_seeds)",
+    )
 
     def validate(self, prefix: str = "") -> None:
         """Raise :class:`~pih.config.ConfigError` naming the first key outside its range."""

@@ -12,7 +12,7 @@ from pih.costs import hole_distance
 from pih.planner_config import PlannerConfig, SensingConfig
 
 if TYPE_CHECKING:
-    from pih.scene import Trace
+    from pih.trace import Trace
 
 
 def outer_goal(

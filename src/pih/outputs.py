@@ -28,7 +28,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from pih.provenance import PROVENANCE_KEY, canonical_json, stable
-from pih.scene import Trace
+from pih.trace import Trace
 
 Column = tuple[str, str]  # (unit, description)
 

@@ -44,8 +44,9 @@ from pih.optimizers import make_optimizer
 from pih.outer import OuterLevel
 from pih.planner_config import PlannerConfig
 from pih.run_record import ROLLOUT_COLUMNS, IterationReport, RunRecord, RunRecorder, recorded_pose
-from pih.scene import PegInHoleScene, RobotTrajectory, Trace
+from pih.scene import PegInHoleScene
 from pih.scene_config import SceneConfig
+from pih.trace import RobotTrajectory, Trace
 
 
 def run_seeds(config: PlannerConfig, seed_key: str = "") -> dict[str, int]:

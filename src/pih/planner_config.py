@@ -15,7 +15,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from pih.config import require, require_finite, require_positive
+from pih.config import described, require, require_finite, require_positive
 from pih.dmp import DmpConfig
 from pih.optimizers import OptimizerConfig
 
@@ -38,18 +38,27 @@ MAX_START_HEIGHT_M = 0.15
 class CostConfig:
     """Weights of eq. 11 (paper Table 4), the sampling of its sums, and their balance."""
 
-    regularization: float = 1.0e4  # α1
-    spring_energy: float = 20.0  # α2
-    hole_distance: float = 10.0  # α3
-    # The sums over t in eq. 11 run over samples this far apart, so the weights' balance does
-    # not change with the simulator's time step. Not in the paper.
-    sample_period_s: float = 0.01
-    # Whether the sums also run over the settling time after the DMP's duration T.
-    include_settling: bool = True
-    # "none": eq. 11 as printed. "first_iteration_median": each term is divided by its median
-    # over the first iteration's rollouts (then weighted by α), so the terms start at the
-    # similar sizes the paper asks for (§3.3); the divisors are fixed after iteration 1.
-    balance: Balance = "none"
+    regularization: float = described(1.0e4, "α1, the weight of ‖W‖² in eq. 11 (Table 4)")
+    spring_energy: float = described(
+        20.0, "α2, the weight of the spring energy in eq. 11 (Table 4)"
+    )
+    hole_distance: float = described(
+        10.0, "α3, the weight of the distance to the sensed hole in eq. 11 (Table 4)"
+    )
+    # So that the weights' balance does not change with the simulator's time step.
+    sample_period_s: float = described(
+        0.01, "the sums over t in eq. 11 run over samples this far apart (not in the paper)"
+    )
+    include_settling: bool = described(
+        True, "whether the sums also run over the settling time after the DMP's duration T"
+    )
+    # first_iteration_median makes the terms start at the similar sizes the paper asks for (§3.3).
+    balance: Balance = described(
+        "none",
+        "none: eq. 11 as printed; first_iteration_median: each term is divided by its median "
+        "over the first iteration's rollouts (then weighted by α), divisors fixed after "
+        "iteration 1",
+    )
 
     def validate(self, prefix: str = "") -> None:
         require_positive(self, COST_TERMS, prefix, allow_zero=True)
@@ -74,16 +83,21 @@ class CostConfig:
 class SensingConfig:
     """Visual noise on the hole's x (paper §3.2) and the belief Σ_H of eq. 11 and 15."""
 
-    bias_m: float = 0.005  # μ_x, Table 4
-    std_m: float = 0.005  # σ_x, Table 4
-    # Σ_H = diag(σ²) for (x, y, θ). Not in the paper. x: the vision noise σ_x; y and θ are sensed
-    # exactly (eq. 16b), so their belief is tight: 1 mm and 0.02 rad (with a loose θ belief the
-    # outer level picks tilted explored poses, and a tilted goal jams the peg in the hole). A
-    # tight y makes J_out prefer explored poses at the hole's depth over poses beside it.
-    hole_std: tuple[float, float, float] = (0.005, 0.001, 0.02)
-    # "per_iteration": the hole is sensed anew every iteration (Algorithm 1, Fig. 6);
-    # "per_run": once per run.
-    redraw: Redraw = "per_iteration"
+    bias_m: float = described(0.005, "μ_x, the bias of the sensed hole's x (Table 4)")
+    std_m: float = described(0.005, "σ_x, the standard deviation of the sensed hole's x (Table 4)")
+    # x: the vision noise σ_x; y and θ are sensed exactly (eq. 16b), so their belief is tight:
+    # 1 mm and 0.02 rad (with a loose θ belief the outer level picks tilted explored poses, and a
+    # tilted goal jams the peg in the hole). A tight y makes J_out prefer explored poses at the
+    # hole's depth over poses beside it.
+    hole_std: tuple[float, float, float] = described(
+        (0.005, 0.001, 0.02),
+        "the belief Σ_H = diag(std²) of eq. 11 and 15, for (x m, y m, θ rad) (not in the paper)",
+    )
+    redraw: Redraw = described(
+        "per_iteration",
+        "per_iteration: the hole is sensed anew every iteration (Algorithm 1, Fig. 6); "
+        "per_run: once per run",
+    )
 
     def validate(self, prefix: str = "") -> None:
         require_finite(prefix + "bias_m", self.bias_m)
@@ -110,19 +124,27 @@ class SensingConfig:
 class OuterConfig:
     """How bilevel's outer level sets the DMP goal (eq. 15–16); see docs/planner.md."""
 
-    # "explored_argmin": the paper's rule, arg min J_out over the peg-tip poses P2 explored by
-    # the previous iteration. "deepest_explored": once some rollout has put P2 more than
-    # entry_depth_m below the hole's top surface with the peg within max_tilt_rad of the hole's
-    # axis, aim along that axis (x of the deepest such P2 so far, the sensed depth y_H and tilt
-    # θ_H, eq. 16b: exact); before that, the paper's rule.
-    rule: OuterRule = "explored_argmin"
-    # The paper's rule's goal tilt: the chosen explored pose's ("explored") or θ_H ("sensed").
-    goal_tilt: GoalTilt = "explored"
-    # deepest_explored: how far below the top surface counts as inside the chamfer or hole...
-    entry_depth_m: float = 0.001
-    # ...for a peg this close to upright (a steeply tilted peg can dip its tip centre into the
-    # chamfer from beside the hole).
-    max_tilt_rad: float = 0.05
+    rule: OuterRule = described(
+        "explored_argmin",
+        "explored_argmin: the paper's rule, arg min J_out over the peg-tip poses P2 explored by "
+        "the previous iteration; deepest_explored: once some rollout has put P2 more than "
+        "entry_depth_m below the hole's top surface with the peg within max_tilt_rad of the "
+        "hole's axis, aim along that axis (x of the deepest such P2 so far, the sensed depth y_H "
+        "and tilt θ_H, eq. 16b: exact), before that the paper's rule",
+    )
+    goal_tilt: GoalTilt = described(
+        "explored",
+        "the paper's rule's goal tilt: the chosen explored pose's (explored) or θ_H (sensed)",
+    )
+    entry_depth_m: float = described(
+        0.001,
+        "deepest_explored: how far below the top surface counts as inside the chamfer or hole, "
+        "for a peg within max_tilt_rad of upright",
+    )
+    # A steeply tilted peg can dip its tip centre into the chamfer from beside the hole.
+    max_tilt_rad: float = described(
+        0.05, "deepest_explored: the largest tilt from upright of a peg that counts as inside"
+    )
 
     def validate(self, prefix: str = "") -> None:
         require_positive(self, ("entry_depth_m", "max_tilt_rad"), prefix)
@@ -130,47 +152,79 @@ class OuterConfig:
 
 @dataclass(frozen=True)
 class PlannerConfig:
-    method: Method = "bilevel"
-    iterations: int = 50  # Table 4 / §3.3
-    # Start of the peg centre's x (paper §3.3: x_P from −0.04 to −0.03 m).
-    start_x_m: float = -0.035
-    # Height of the peg tip P2 above the hole's top surface at the start. Not in the paper: 5 mm
-    # clears the surface so the first contact is made by the planned motion (Fig. 8: ≈0.1 m).
-    start_height_m: float = 0.005
-    # Extra simulated time after the DMP's duration T, so the peg settles before success is judged.
-    # Not in the paper; 0.3 s is ~2 periods of the peg on the 1000 N/m spring.
-    settle_s: float = 0.3
-    # Success: |P2 − H| (x, y) at the end. Not in the paper; 1 mm is well inside the hole
-    # (the chamfer alone is 2.5 mm deep) and tighter than the 5 mm visual noise.
-    success_tolerance_m: float = 0.001
-    # The run's seed. With optimizer.seed and the run's sweep levels (all but the method's), it
-    # seeds the sensed holes, the exploration noise and the deployment trials (see run_seeds).
-    seed: int = 0
-    # After the last iteration, the learned policy (mean weights, no exploration) is deployed
-    # this many times, each against a freshly sensed hole: the headline success metric.
-    deploy_trials: int = 10
-    # Which weights are deployed: the optimizer's mean after the last iteration, or (evaluating
-    # the mean once per iteration, as dmpbbo does) the latest mean whose rollout inserted by
-    # the planner's own observation (``Planner.inserted``); the final mean if none did. With
-    # the latter the final mean is deployed too, on the same sensed holes (phase
+    """The planner (paper Table 4, §3.3; docs/planner.md): method, start, budget, deployment."""
+
+    method: Method = described(
+        "bilevel",
+        "one_level: the DMP's goal is the sensed hole; bilevel: the outer level (planner.outer) "
+        "sets it",
+    )
+    iterations: int = described(50, "training iterations (Table 4, §3.3)")
+    start_x_m: float = described(
+        -0.035, "x of the peg centre at the start (paper §3.3: x_P from −0.04 to −0.03 m)"
+    )
+    # 5 mm clears the surface so the first contact is made by the planned motion (Fig. 8: ≈0.1 m).
+    start_height_m: float = described(
+        0.005,
+        "height of the peg tip P2 above the hole's top surface at the start (not in the paper)",
+    )
+    # 0.3 s is ~2 periods of the peg on the 1000 N/m spring.
+    settle_s: float = described(
+        0.3,
+        "extra simulated time after the DMP's duration T, so the peg settles before success is "
+        "judged (not in the paper)",
+    )
+    # 1 mm is well inside the hole (the chamfer alone is 2.5 mm deep) and tighter than the 5 mm
+    # visual noise.
+    success_tolerance_m: float = described(
+        0.001, "success: |P2 − H| (x, y) at the end at most this (not in the paper)"
+    )
+    seed: int = described(
+        0,
+        "the run's seed: with optimizer.seed and the run's sweep levels (all but the method's), "
+        "it seeds the sensed holes, the exploration noise and the deployment trials "
+        "(pih.planner.run_seeds)",
+    )
+    deploy_trials: int = described(
+        10,
+        "after the last iteration, the learned policy (mean weights, no exploration) is deployed "
+        "this many times, each against a freshly sensed hole: the headline success metric",
+    )
+    # With last_inserted_mean the final mean is deployed too, on the same sensed holes (phase
     # ``deploy_final_mean``), so one training run measures both policies.
-    deploy_policy: DeployPolicy = "last_inserted_mean"
-    # Each deployment trial starts the peg tip this far off the training start, x and y each
-    # N(0, σ²) from the deployment stream (0: every trial starts where training did). Without
-    # it a bilevel policy whose goal does not depend on the sensed hole deploys the same
+    deploy_policy: DeployPolicy = described(
+        "last_inserted_mean",
+        "which weights are deployed: the optimizer's mean after the last iteration (final_mean), "
+        "or, evaluating the mean once per iteration as dmpbbo does, the latest mean whose "
+        "rollout inserted by the planner's own observation, else the final mean "
+        "(last_inserted_mean)",
+    )
+    # Without it a bilevel policy whose goal does not depend on the sensed hole deploys the same
     # rollout every trial; with it, the trials ask whether the policy tolerates a start the
-    # robot reaches only to within σ. Not in the paper.
-    deploy_start_std_m: float = 0.0
-    # Each training rollout (sampled and the evaluated mean) starts this far off the nominal
-    # start, x and y each N(0, σ²) from the run's start stream, so the optimizer ranks weights
-    # by how they do from starts the robot reaches only to within σ (robust training; 0: every
-    # training rollout starts at the nominal start, Algorithm 1). Not in the paper.
-    train_start_std_m: float = 0.0
-    # Stop early when the best J_inn of the last `convergence_window` iterations varies by less
-    # than `convergence_tolerance` relative to its mean; 0 runs the whole budget (the paper's
-    # bands compare runs over the same iterations).
-    convergence_window: int = 0
-    convergence_tolerance: float = 0.01
+    # robot reaches only to within σ.
+    deploy_start_std_m: float = described(
+        0.0,
+        "each deployment trial starts the peg tip this far off the training start, x and y each "
+        "N(0, σ²) from the deployment stream; 0: every trial starts where training did (not in "
+        "the paper)",
+    )
+    # The optimizer then ranks weights by how they do from starts the robot reaches only to
+    # within σ.
+    train_start_std_m: float = described(
+        0.0,
+        "each training rollout (sampled and the evaluated mean) starts this far off the nominal "
+        "start, x and y each N(0, σ²) from the run's start stream: robust training; 0: every "
+        "training rollout starts at the nominal start, Algorithm 1 (not in the paper)",
+    )
+    # 0 by default: the paper's bands compare runs over the same iterations.
+    convergence_window: int = described(
+        0,
+        "stop early when the best J_inn of the last this many iterations varies by less than "
+        "convergence_tolerance relative to its mean; 0: run the whole budget",
+    )
+    convergence_tolerance: float = described(
+        0.01, "the relative variation of the early stop (convergence_window)"
+    )
     # T = 3 s (not in the paper): 3.3 s simulated per rollout with the settling time.
     dmp: DmpConfig = field(default_factory=DmpConfig)
     optimizer: OptimizerConfig = field(default_factory=OptimizerConfig)

@@ -111,14 +111,15 @@ def script_library_hash(script: str | Path) -> str:
     return digest.hexdigest()
 
 
-# The modules whose code decides a planning rollout's numbers (scene, contact, DMP, optimizer,
-# planner config, costs, outer level, Algorithm 1, and the run record, which judges success and
-# the convergence stop). A published planning run is stale when their hash no longer matches its
-# record (tests/test_published.py); bookkeeping modules (outputs, provenance, config checks) are not
-# in it.
+# The modules whose code decides a planning rollout's numbers (scene, contact, the robot
+# trajectory and trace records, DMP, optimizer, planner config, costs, outer level, Algorithm 1,
+# and the run record, which judges success and the convergence stop). A published planning run is
+# stale when their hash no longer matches its record (tests/test_published.py); bookkeeping
+# modules (outputs, provenance, config checks) are not in it.
 ROLLOUT_MODULES = (
     "scene_config",
     "scene",
+    "trace",
     "frames",
     "whitney",
     "dmp",

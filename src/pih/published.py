@@ -33,15 +33,14 @@ PUBLISHED_GLOBS = (
     "summary.md",
     "provenance.md",
     "planning/*/rollouts.parquet",
-    "planning/*/best_paths.parquet",
     "planning/*/redeploy_*.parquet",
     "planning/summary/*",
     "validation/*.*",
-    "validation/*/*.parquet",
     "whitney/*.parquet",
 )
-"""What :func:`publish` copies from a results tree (everything but the recordings and the
-report, which the workflow remakes from these)."""
+"""What :func:`publish` copies from a results tree: every rollout's record (≈ 0.3 MB a run),
+the tables, figures and provenance. Not the per-step traces (best paths, validation runs: tens
+of MB a run at 0.5 ms), the recordings or the report, which the workflow remakes."""
 
 # (table under a results tree, the columns that name a row, the numbers compared)
 HEADLINE_TABLES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
@@ -256,11 +255,11 @@ def results_block(published: Path) -> str:
         [
             README_BEGIN,
             source,
-            markdown_table(planning_rows(success, robustness), "{:.3g}"),
+            markdown_table(planning_rows(success, robustness), "{:.3g}").strip(),
             "Paired from offset starts (sign test over the untied pairs):",
-            markdown_table(perturbed_pairs(paired, robustness), "{:.3g}"),
+            markdown_table(perturbed_pairs(paired, robustness), "{:.3g}").strip(),
             "Paired from the training start:",
-            markdown_table(paired_rows(paired), "{:.3g}"),
+            markdown_table(paired_rows(paired), "{:.3g}").strip(),
             README_END,
         ]
     )

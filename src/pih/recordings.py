@@ -22,8 +22,8 @@ from numpy.typing import NDArray
 from pih.frames import offset_along_axis
 from pih.outputs import write_with
 from pih.provenance import canonical_json
-from pih.scene import Trace
 from pih.scene_config import SceneConfig, hole_outline
+from pih.trace import Trace
 from pih.validation import error_side
 
 APPLICATION_ID = "pih"

@@ -22,7 +22,8 @@ from pih.scene_config import SceneConfig
 
 if TYPE_CHECKING:
     from pih.planner import Rollout
-    from pih.scene import PegInHoleScene, Trace
+    from pih.scene import PegInHoleScene
+    from pih.trace import Trace
 
 ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
     "phase": (

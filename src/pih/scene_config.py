@@ -14,7 +14,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from pih.config import require, require_finite, require_positive
+from pih.config import described, require, require_finite, require_positive
 from pih.whitney import WhitneyParams
 
 PAPER = WhitneyParams()
@@ -26,15 +26,18 @@ PAPER = WhitneyParams()
 
 @dataclass(frozen=True)
 class PegConfig:
-    # d of the paper's Whitney parameters (docs/whitney.md).
-    diameter_m: float = PAPER.peg_diameter_m
-    # Whitney's L_g = 45 mm: the spring point P1 (peg top centre) is 45 mm above the tip P2.
-    length_m: float = PAPER.compliance_length_m
-    # Out-of-plane extrusion of the planar peg. Not in the paper; 10 mm keeps the peg's
-    # hydroelastic patches well inside the 20 mm-thick hole walls.
-    thickness_m: float = 0.010
-    # Steel (the paper's material).
-    density_kg_per_m3: float = 7850.0
+    """The peg: a planar rectangle with its planar joint at the top centre P1."""
+
+    diameter_m: float = described(
+        PAPER.peg_diameter_m, "peg diameter d, of the paper's Whitney parameters (docs/whitney.md)"
+    )
+    length_m: float = described(
+        PAPER.compliance_length_m,
+        "Whitney's L_g: the spring point P1 (peg top centre) is this far above the tip P2",
+    )
+    # 10 mm keeps the peg's hydroelastic patches well inside the 20 mm-thick hole walls.
+    thickness_m: float = described(0.010, "out-of-plane extrusion of the planar peg (chosen)")
+    density_kg_per_m3: float = described(7850.0, "peg density: steel, the paper's material")
 
     def validate(self, prefix: str = "") -> None:
         require_positive(
@@ -54,29 +57,37 @@ class PegConfig:
 
 @dataclass(frozen=True)
 class HoleConfig:
-    # D of the paper's Whitney parameters: 0.033 mm diametral clearance with the default peg.
-    diameter_m: float = PAPER.hole_diameter_m
-    # Top surface to bottom. 10 mm puts the entrance at y = 0 with the hole frame H at
-    # y_H = −0.01 m (paper Table 4).
-    depth_m: float = 0.010
-    # Whitney's α (docs/whitney.md).
-    chamfer_angle_deg: float = math.degrees(PAPER.chamfer_angle_rad)
-    # Horizontal chamfer width W. Not given by the paper; 2.5 mm captures a 2 mm offset
-    # (ε0' ≈ 1.98 mm ≤ W) even with a 1 mm fillet, which takes ≈0.4 mm off the chamfer's lower end.
-    chamfer_width_m: float = PAPER.chamfer_width_m
-    # Round the chamfer–wall edge: a sharp rigid edge gives the chamfer normal while the peg is
-    # already in one-point contact on the wall (Fz ≈ 4|Fx|, unphysical; docs/simulation.md).
-    # 0.1 mm keeps the chamfer whole (a 1 mm fillet clips its lower end; docs/validation.md).
-    fillet_radius_m: float = 1.0e-4
-    fillet_facets: int = 9
-    # Width of each wall block beyond the chamfer; large enough that a peg landing beside the
-    # hole (the planner starts 30–40 mm away) still rests on the hole's top surface.
-    wall_width_m: float = 0.060
-    # Out-of-plane extrusion of the walls; wider than the peg.
-    thickness_m: float = 0.020
-    # Hole frame H = bottom centre of the hole (paper Table 4: x_H = 0, y_H = −0.01 m, θ_H = 0).
-    x_m: float = 0.0
-    y_m: float = -0.010
+    """The hole: two rigid chamfered walls and a rigid bottom, welded to the world."""
+
+    # 0.033 mm diametral clearance with the default peg.
+    diameter_m: float = described(
+        PAPER.hole_diameter_m, "hole diameter D, of the paper's Whitney parameters"
+    )
+    # 10 mm puts the entrance at y = 0 with the hole frame H at y_H = −0.01 m (paper Table 4).
+    depth_m: float = described(0.010, "depth from the hole's top surface to its bottom")
+    chamfer_angle_deg: float = described(
+        math.degrees(PAPER.chamfer_angle_rad), "Whitney's chamfer angle α (docs/whitney.md)"
+    )
+    # Not given by the paper; 2.5 mm captures a 2 mm offset (ε0' ≈ 1.98 mm ≤ W) even with a
+    # 1 mm fillet, which takes ≈0.4 mm off the chamfer's lower end.
+    chamfer_width_m: float = described(PAPER.chamfer_width_m, "horizontal chamfer width W")
+    # A sharp rigid edge gives the chamfer normal while the peg is already in one-point contact
+    # on the wall (Fz ≈ 4|Fx|, unphysical; docs/simulation.md). 0.1 mm keeps the chamfer whole
+    # (a 1 mm fillet clips its lower end; docs/validation.md).
+    fillet_radius_m: float = described(
+        1.0e-4, "radius of the rounded chamfer–wall edge (0: a sharp edge; not in the paper)"
+    )
+    fillet_facets: int = described(9, "straight segments of the fillet's arc")
+    # Large enough that a peg landing beside the hole (the planner starts 30–40 mm away) still
+    # rests on the hole's top surface.
+    wall_width_m: float = described(0.060, "width of each wall block beyond the chamfer")
+    thickness_m: float = described(
+        0.020, "out-of-plane extrusion of the walls (wider than the peg)"
+    )
+    x_m: float = described(
+        0.0, "x of the hole frame H, the bottom centre of the hole (paper Table 4: x_H = 0)"
+    )
+    y_m: float = described(-0.010, "y of the hole frame H (paper Table 4: y_H = −0.01 m)")
 
     def validate(self, prefix: str = "") -> None:
         require_positive(self, ("diameter_m", "depth_m", "wall_width_m", "thickness_m"), prefix)
@@ -126,21 +137,29 @@ class HoleConfig:
 
 @dataclass(frozen=True)
 class MaterialConfig:
-    # Paper §2.4: steel, hydroelastic modulus = Young's modulus 200 GPa. 20 GPa is the validation
-    # rule's choice (0.002 higher pooled r(F_x) against Whitney; docs/validation.md).
-    hydroelastic_modulus_pa: float = 2.0e10
-    # Paper §2.4: 30 s/m.
-    hunt_crossley_dissipation_s_per_m: float = 30.0
-    # Paper Table 4 (steel on steel).
-    friction: float = PAPER.friction
-    # Hydroelastic margin. Not in the paper. It acts like a thinner clearance (16.5 µm per side):
-    # with 5 µm (which TAMSI needed) the validation's r(F_x) falls to 0.01 and planning rollouts
-    # insert half as often; `lagged` needs none (docs/simulation.md, docs/validation.md).
-    margin_m: float = 0.0
-    # Point-contact model only (the "beyond the paper" comparison): contact stiffness.
-    # Not in the paper; chosen so the point-contact penetration at the validation's forces
-    # (≤ 25 N) stays ≤ 25 µm, about the per-side clearance.
-    point_stiffness_n_per_m: float = 1.0e6
+    """The peg's contact material: hydroelastic or point-contact stiffness, dissipation, friction."""
+
+    # 20 GPa is the validation rule's choice (0.002 higher pooled r(F_x) against Whitney;
+    # docs/validation.md).
+    hydroelastic_modulus_pa: float = described(
+        2.0e10,
+        "hydroelastic modulus of the compliant peg (paper §2.4: Young's modulus of steel, 200 GPa)",
+    )
+    hunt_crossley_dissipation_s_per_m: float = described(
+        30.0, "Hunt–Crossley dissipation (paper §2.4)"
+    )
+    friction: float = described(PAPER.friction, "friction coefficient μ, steel on steel (Table 4)")
+    # It acts like a thinner clearance (16.5 µm per side): with 5 µm (which TAMSI needed) the
+    # validation's r(F_x) falls to 0.01 and planning rollouts insert half as often; `lagged`
+    # needs none (docs/simulation.md, docs/validation.md).
+    margin_m: float = described(0.0, "Drake's hydroelastic margin (not in the paper)")
+    # Chosen so the point-contact penetration at the validation's forces (≤ 25 N) stays ≤ 25 µm,
+    # about the per-side clearance.
+    point_stiffness_n_per_m: float = described(
+        1.0e6,
+        "contact stiffness of the point-contact model (solver.contact_model point, the comparison "
+        "beyond the paper; not in the paper)",
+    )
 
     def validate(self, prefix: str = "") -> None:
         require_positive(self, ("hydroelastic_modulus_pa", "point_stiffness_n_per_m"), prefix)
@@ -156,40 +175,67 @@ DiscreteApproximation = Literal["tamsi", "sap", "similar", "lagged"]
 
 @dataclass(frozen=True)
 class SolverConfig:
+    """The simulator: time step, Drake's contact model and solver, and divergence limits."""
+
     # The coarsest step whose insertion outcomes agree with half of it on a recorded set of
     # planning rollouts (benchmarks/step_convergence.py): at 1 ms and 2 ms pegs that jam at the
     # chamfer at finer steps slide in (docs/simulation.md). The explicit spring diverges at 2.5 ms.
-    time_step_s: float = 5.0e-4
-    # A check interval that diverges at time_step_s (an overlap above the limit as a tilted peg
-    # snaps off the chamfer edge) is run once more at this finer step from its start state,
-    # sampled at time_step_s, and the rollout goes on at time_step_s; 0: no retry.
-    retry_time_step_s: float = 2.5e-4
+    time_step_s: float = described(5.0e-4, "the simulator's time step")
+    retry_time_step_s: float = described(
+        2.5e-4,
+        "a check interval that diverges at time_step_s (an overlap above the limit as a tilted "
+        "peg snaps off the chamfer edge) is run once more at this finer step from its start "
+        "state, sampled at time_step_s, and the rollout goes on at time_step_s; 0: no retry",
+    )
     # `lagged`, one Drake keeps (it deprecates TAMSI): it gets every validation offset through
     # with the best agreement, and ran 295 planning rollouts with no failure (docs/simulation.md).
-    discrete_contact_approximation: DiscreteApproximation = "lagged"
-    contact_model: ContactModel = "hydroelastic"
-    # Drake's regularised-friction stiction tolerance: the slip speed below which friction is
-    # treated as sticking (MultibodyPlantConfig.stiction_tolerance; Drake's default 1e-4 m/s).
-    stiction_tolerance_m_per_s: float = 1.0e-4
-    # A rollout whose contact force exceeds this is "diverged" (the paper's forces are ≤ 25 N).
-    max_contact_force_n: float = 1.0e3
-    # ...or whose peg centre leaves a disc of this radius around the hole frame.
-    max_distance_from_hole_m: float = 0.2
-    # ...or whose peg and hole geometries overlap by more than this (gross tunnelling). Steady
-    # hydroelastic contact at 200 GPa overlaps by µm; a tilted peg snapping off the chamfer edge
-    # at ~0.2 m/s can miss contact for one 2 ms step and overlap 0.2–0.8 mm before it recovers
-    # (measured); those transients are kept (see the trace's penetration_m) and not flagged.
-    max_penetration_m: float = 1.0e-3
-    # How often (simulated time) the running rollout is checked for divergence: the stretch
-    # that is rerun at retry_time_step_s when it diverged.
-    check_interval_s: float = 0.25
-    # Count contact patches carrying force each step (a Python callback: ≈10–20 % slower).
-    log_contact_patches: bool = True
-    # Drake's sampled output ports (MultibodyPlantConfig.use_sampled_output_ports): on, the
-    # logged contact force is the step's own result. Off gives the same trajectory ≈5 % faster,
-    # but the force log then evaluates the geometry at a non-finite state before the per-step
-    # monitor can stop the rollout, and Drake's assertion ends the process (docs/simulation.md).
-    sampled_output_ports: bool = True
+    discrete_contact_approximation: DiscreteApproximation = described(
+        "lagged",
+        "Drake's discrete contact solver (MultibodyPlantConfig.discrete_contact_approximation)",
+    )
+    contact_model: ContactModel = described(
+        "hydroelastic",
+        "Drake's contact model: hydroelastic (the paper's), hydroelastic with point-contact "
+        "fallback, or point contact",
+    )
+    stiction_tolerance_m_per_s: float = described(
+        1.0e-4,
+        "Drake's regularised-friction stiction tolerance: the slip speed below which friction is "
+        "treated as sticking (MultibodyPlantConfig.stiction_tolerance; Drake's default 1e-4 m/s)",
+    )
+    max_contact_force_n: float = described(
+        1.0e3,
+        "a rollout whose contact force exceeds this is diverged (the paper's forces are ≤ 25 N)",
+    )
+    max_distance_from_hole_m: float = described(
+        0.2, "a rollout whose peg centre leaves a disc of this radius around H is diverged"
+    )
+    # Steady hydroelastic contact at 200 GPa overlaps by µm; a tilted peg snapping off the chamfer
+    # edge at ~0.2 m/s can miss contact for one 2 ms step and overlap 0.2–0.8 mm before it
+    # recovers (measured); those transients are kept (see the trace's penetration_m) and not
+    # flagged.
+    max_penetration_m: float = described(
+        1.0e-3,
+        "a rollout whose peg and hole geometries overlap by more than this is diverged (gross "
+        "tunnelling)",
+    )
+    check_interval_s: float = described(
+        0.25,
+        "how often (simulated time) the running rollout is checked for divergence: the stretch "
+        "rerun at retry_time_step_s when it diverged",
+    )
+    log_contact_patches: bool = described(
+        True,
+        "count the contact patches carrying force each step (a Python callback: ≈10–20 % slower)",
+    )
+    # Off gives the same trajectory ≈5 % faster, but the force log then evaluates the geometry at
+    # a non-finite state before the per-step monitor can stop the rollout, and Drake's assertion
+    # ends the process (docs/simulation.md).
+    sampled_output_ports: bool = described(
+        True,
+        "Drake's sampled output ports (MultibodyPlantConfig.use_sampled_output_ports): on, the "
+        "logged contact force is the step's own result",
+    )
 
     def validate(self, prefix: str = "") -> None:
         require(
@@ -232,16 +278,17 @@ class SolverConfig:
 
 @dataclass(frozen=True)
 class SpringConfig:
-    # Paper Table 4: k_x = k_y = 1000 N/m, k_θ = 1 N·m/rad.
-    stiffness: tuple[float, float, float] = (
-        PAPER.k_x_n_per_m,
-        PAPER.k_x_n_per_m,
-        PAPER.k_theta_nm_per_rad,
+    """The virtual-robot spring–damper between the robot frame and the peg top P1 (eq. 7–10)."""
+
+    stiffness: tuple[float, float, float] = described(
+        (PAPER.k_x_n_per_m, PAPER.k_x_n_per_m, PAPER.k_theta_nm_per_rad),
+        "k_x N/m, k_y N/m, k_θ N·m/rad (paper Table 4: 1000, 1000, 1)",
     )
-    # Damping as a fraction of each DoF's critical damping 2·sqrt(k·m). Not in the paper; the
-    # spring is explicit (evaluated at the start of each step); full critical damping was
+    # The spring is explicit (evaluated at the start of each step); full critical damping was
     # unstable above 0.83 ms while 0.3 was stable at 1–2 ms (docs/simulation.md).
-    damping_ratio: float = 0.3
+    damping_ratio: float = described(
+        0.3, "damping as a fraction of each DoF's critical damping 2·sqrt(k·m) (not in the paper)"
+    )
 
     def validate(self, prefix: str = "") -> None:
         require(
@@ -260,6 +307,8 @@ class SpringConfig:
 
 @dataclass(frozen=True)
 class SceneConfig:
+    """The simulated scene (paper §2, Table 4; docs/simulation.md)."""
+
     peg: PegConfig = field(default_factory=PegConfig)
     hole: HoleConfig = field(default_factory=HoleConfig)
     material: MaterialConfig = field(default_factory=MaterialConfig)

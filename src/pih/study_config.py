@@ -1,9 +1,10 @@
 """The study's configuration: the config file's sections, its schema, and the sweep.
 
 ``config/config.yaml`` has sections ``scene`` (:class:`pih.scene_config.SceneConfig`),
-``validation`` (:class:`ValidationSection`), ``planner`` (:class:`pih.planner.PlannerConfig`),
-a ``sweep`` whose keys are dotted config paths (``planner.start_x_m``) with lists of levels,
-optional ``variants``, ``figure_point`` and ``robustness`` (:class:`RobustnessSection`). A sweep point overrides those paths; :func:`resolve`
+``validation`` (:class:`ValidationSection`), ``planner``
+(:class:`pih.planner_config.PlannerConfig`), a ``sweep`` whose keys are dotted config paths
+(``planner.start_x_m``) with lists of levels, optional ``variants``, ``figure_point`` and
+``robustness`` (:class:`RobustnessSection`). A sweep point overrides those paths; :func:`resolve`
 applies it and validates the result strictly, and :func:`check_study` does so for every point
 before any job runs. :func:`config_schema` is what ``workflow/schemas/config.schema.json`` holds
 (``python -m pih schema`` regenerates it; a test checks they agree). docs/workflow.md explains
@@ -26,11 +27,19 @@ from typing import Any
 
 import numpy as np
 
-from pih.config import ConfigError, from_mapping, json_schema, to_mapping
+from pih.config import (
+    ConfigError,
+    described,
+    from_mapping,
+    json_schema,
+    markdown_tables,
+    markdown_type,
+    to_mapping,
+)
 from pih.planner_config import PlannerConfig, replace
 from pih.provenance import canonical_json
 from pih.scene_config import SceneConfig
-from pih.validation import ValidationConfig, validation_scene_config
+from pih.validation_config import ValidationConfig, validation_scene_config
 
 METHOD_KEY = "planner.method"
 OUTER_PREFIX = "planner.outer."
@@ -207,18 +216,25 @@ def resolved_sections(
 class ValidationSection:
     """The hydroelastic-vs-Whitney validation runs."""
 
-    offsets_m: tuple[float, ...] = (0.0005, 0.001, 0.0015, 0.002)
-    experiment: ValidationConfig = field(default_factory=ValidationConfig)
-    # Scene settings of the validation runs that differ from the planner's scene, as dotted
-    # paths under `scene` (e.g. "hole.fillet_radius_m"); docs/validation.md says why.
-    scene_overrides: dict[str, Any] = field(default_factory=dict)
-    # Named validation settings, each a set of dotted scene paths applied over scene_overrides;
-    # every variant runs at every offset and goes into results/validation/variants.*.
-    variants: dict[str, dict[str, Any]] = field(
-        default_factory=lambda: {"hydroelastic": {}, "point": {"solver.contact_model": "point"}}
+    offsets_m: tuple[float, ...] = described(
+        (0.0005, 0.001, 0.0015, 0.002),
+        "lateral offsets ε0 of the spring base from the hole axis, one run each (paper §2.4: "
+        "x_P = −0.5 … −2 mm)",
     )
-    # The variants the comparison table and Figs 4, 5, A1, A2 show.
-    figure_variants: tuple[str, ...] = ("hydroelastic", "point")
+    experiment: ValidationConfig = field(default_factory=ValidationConfig)
+    scene_overrides: dict[str, Any] = described(
+        description="scene settings of the validation runs that differ from the planner's "
+        "scene, as dotted paths under scene (e.g. hole.fillet_radius_m; docs/validation.md)",
+        default_factory=dict,
+    )
+    variants: dict[str, dict[str, Any]] = described(
+        description="named validation settings, each a set of dotted scene paths applied over "
+        "scene_overrides; every variant runs at every offset (results/validation/variants.*)",
+        default_factory=lambda: {"hydroelastic": {}, "point": {"solver.contact_model": "point"}},
+    )
+    figure_variants: tuple[str, ...] = described(
+        ("hydroelastic", "point"), "the variants the comparison table and Figs 4, 5, A1, A2 show"
+    )
 
     def validate(self, prefix: str = "") -> None:
         if not self.offsets_m or any(not (0 < o < 0.01) for o in self.offsets_m):
@@ -257,9 +273,11 @@ class ValidationSection:
 class RobustnessSection:
     """Every planning run's learned policy deployed again from inexact starts."""
 
-    # One redeployment of every run per std: the deployment trials from starts offset in x and
-    # y by N(0, std²) (`pih redeploy`, docs/planner.md). Empty: none.
-    start_std_m: tuple[float, ...] = (0.001,)
+    start_std_m: tuple[float, ...] = described(
+        (0.001,),
+        "one redeployment of every run per std: the deployment trials from starts offset in x "
+        "and y by N(0, std²) (pih redeploy, docs/planner.md); empty: none",
+    )
 
     def validate(self, prefix: str = "") -> None:
         stds = [canonical_json(v) for v in self.start_std_m]
@@ -330,6 +348,54 @@ def config_schema() -> dict[str, Any]:
 OWN_SECTIONS = ("sweep", "variants", "figure_point", "validation.variants")
 """Sections (dotted paths) a config file given with --configfile replaces whole instead of
 merging: they define *which* runs exist."""
+
+SECTIONS: dict[str, type] = {
+    "scene": SceneConfig,
+    "validation": ValidationSection,
+    "planner": PlannerConfig,
+    "robustness": RobustnessSection,
+}
+"""The config file's sections that are config dataclasses, in docs/configuration.md's order."""
+
+
+def config_markdown() -> str:
+    """docs/configuration.md: every key of a study's config file with its type, default and
+    description (:func:`pih.config.described`), one table per section (``python -m pih schema
+    --markdown`` prints it; a test checks the committed file is current)."""
+    schema = config_schema()
+    own = ", ".join(f"`{key}`" for key in OWN_SECTIONS)
+    optional = {"variants": "none", "max_sweep_points": f"`{MAX_SWEEP_POINTS}`"}
+    top = ["| key | type | default | description |", "|---|---|---|---|"]
+    for name, entry in schema["properties"].items():
+        if name in SECTIONS:
+            kind, default, text = "section", "", f"see `{name}` below"
+        else:
+            kind = markdown_type(entry)
+            default = "required" if name in schema["required"] else optional[name]
+            text = entry["description"]
+        top.append(f"| `{name}` | {kind} | {default} | {text} |")
+    parts = [markdown_tables(cls, name) for name, cls in SECTIONS.items()]
+    return (
+        f"""# Configuration
+
+<!-- Generated by `python -m pih schema --markdown > docs/configuration.md` from the config
+dataclasses' field descriptions (pih.config.described); edit those, not this file. -->
+
+Every key of a study's config file. `config/config.yaml`, the default study, sets every key of
+every section; a file given with `--configfile` is merged onto it key by key, except
+{own}, which it replaces whole (docs/workflow.md).
+The *default* column is the library's default (the config dataclass's, e.g.
+`pih.scene_config.SceneConfig()`); the default study may set another value. Units are SI, as
+each key's suffix says. The JSON schema `workflow/schemas/config.schema.json` carries the same
+descriptions.
+
+## Top level
+
+"""
+        + "\n".join(top)
+        + "\n\n"
+        + "\n".join(parts)
+    )
 
 
 def read_config_files(

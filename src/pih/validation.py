@@ -14,15 +14,19 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from pih import whitney
-from pih.config import require, require_positive
 from pih.outputs import markdown_table
-from pih.scene import PegInHoleScene, RobotTrajectory, Trace
 from pih.scene_config import SceneConfig
+from pih.trace import RobotTrajectory, Trace
+from pih.validation_config import ValidationConfig
+
+if TYPE_CHECKING:
+    from pih.scene import PegInHoleScene
 
 ENTRANCE_SIDE_M = 1e-9
 TABLE2_FEATURES = {
@@ -33,50 +37,6 @@ TABLE2_FEATURES = {
     "final_theta": "rad",
 }
 """Table 2's features (the chamfer peak and the final values) and their units."""
-
-
-@dataclass(frozen=True)
-class ValidationConfig:
-    # Robot descent speed. Not in the paper ("moving downward slowly"); 2 mm/s keeps the peg's
-    # inertia negligible (measured: 10 mm/s and 2 mm/s give the same one-point and line forces to
-    # ~1 %) while a 45 mm insertion takes ~35 s simulated, a few seconds of wall time.
-    speed_m_per_s: float = 0.002
-    # The peg tip starts this far above the hole's top surface.
-    start_height_m: float = 0.0005
-    # The robot descends until the spring's rest point is this deep, past Whitney's line contact
-    # (41.2 mm) plus the F_z lag of the vertical spring (≤ 25 N / 1000 N/m).
-    robot_depth_m: float = 0.07
-    # Hole depth in the validation scene: deeper than the robot descends, so the tip never bottoms.
-    hole_depth_m: float = 0.08
-    # Depth where "final" values (Table 2) are read and the correlation window ends: inside
-    # two-point contact for every paper offset (l2' ≥ 39.4 mm), where θ = cD/l is non-zero.
-    final_depth_m: float = 0.035
-    # Window (depth) over which final simulated values are averaged.
-    final_window_m: float = 0.001
-
-    def validate(self, prefix: str = "") -> None:
-        names = (
-            "speed_m_per_s",
-            "start_height_m",
-            "robot_depth_m",
-            "hole_depth_m",
-            "final_depth_m",
-            "final_window_m",
-        )
-        require_positive(self, names, prefix)
-        require(
-            self.robot_depth_m <= self.hole_depth_m - 0.005,
-            prefix + "robot_depth_m",
-            f"at most hole_depth_m − 5 mm = {self.hole_depth_m - 0.005:g} m (the tip must not bottom)",
-            self.robot_depth_m,
-        )
-
-
-def validation_scene_config(scene: SceneConfig, config: ValidationConfig) -> SceneConfig:
-    """The scene with a hole deep enough for a full insertion (same entrance height)."""
-    return scene.replace(
-        hole__depth_m=config.hole_depth_m, hole__y_m=scene.hole.top_y_m - config.hole_depth_m
-    )
 
 
 def whitney_params(scene: SceneConfig, offset_m: float) -> whitney.WhitneyParams:

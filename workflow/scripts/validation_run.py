@@ -5,7 +5,8 @@ from pih.outputs import write_trace
 from pih.recordings import record_insertion
 from pih.scene import PegInHoleScene
 from pih.scene_config import SceneConfig
-from pih.validation import ValidationConfig, run_insertion
+from pih.validation import run_insertion
+from pih.validation_config import ValidationConfig
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
