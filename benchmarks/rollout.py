@@ -2,9 +2,11 @@
 
 The rollout: the peg starts 35 mm beside the hole with its tip 5 mm above the top surface, moves
 across for 2 s and down into the hole, 3.5 s simulated in all. Timed over several runs in one
-process with one reused diagram (the planner's path), then through a naive path (a fresh diagram
-per rollout at a 1 ms step) for comparison. The last line is machine-readable: the planner's
-path (reused diagram, no per-step patch count) against the naive one.
+process with one reused diagram (the planner's path) at the study's step, at the former 2 ms
+step, and through a naive path (a fresh diagram per rollout, same step, no retry) for comparison. The
+last two lines are machine-readable: the planner's path (reused diagram, no per-step patch
+count) against the naive one, and the study's step against the former 2 ms (both in this
+process, so with the same allocator: `LD_PRELOAD` as the workflow sets it, or not).
 
     python benchmarks/rollout.py [--runs 15] [--naive-runs 3]
 """
@@ -17,6 +19,7 @@ import time
 
 import numpy as np
 
+from pih.provenance import allocator
 from pih.scene import PegInHoleScene
 from pih.scene_config import SceneConfig
 from pih.trace import RobotTrajectory
@@ -70,15 +73,28 @@ def main() -> None:
     no_patches = PegInHoleScene(config.replace(solver__log_contact_patches=False))
     lean, _ = time_rollouts(lambda: no_patches, args.runs)
     print(f"  without the per-step contact-patch count: median {statistics.median(lean):.0f} ms")
-    naive_config = config.replace(solver__time_step_s=1e-3, solver__retry_time_step_s=0.0)
+    naive_config = config.replace(solver__retry_time_step_s=0.0)
     naive, status = time_rollouts(lambda: PegInHoleScene(naive_config), args.naive_runs)
     ratio = statistics.median(naive) / statistics.median(reused)
     print(
-        f"naive (fresh diagram per rollout, 1 ms step): median {statistics.median(naive):.0f} ms "
+        f"naive (fresh diagram per rollout, same step): median {statistics.median(naive):.0f} ms "
         f"per rollout; {ratio:.1f}x slower; {status}"
     )
     lean_ratio = statistics.median(naive) / statistics.median(lean)
     print(f"speedup_vs_naive={lean_ratio:.1f} median_ms={statistics.median(lean):.0f}")
+    two_ms = PegInHoleScene(
+        config.replace(
+            solver__time_step_s=2e-3,
+            solver__retry_time_step_s=1e-3,
+            solver__log_contact_patches=False,
+        )
+    )
+    baseline, _ = time_rollouts(lambda: two_ms, args.runs)
+    ratio = statistics.median(baseline) / statistics.median(lean)
+    print(
+        f"converged_vs_2ms_baseline={ratio:.2f} step_ms={config.solver.time_step_s * 1e3:g} "
+        f"(allocator {allocator()})"
+    )
 
 
 if __name__ == "__main__":
