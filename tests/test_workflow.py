@@ -12,6 +12,7 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -410,3 +411,26 @@ def test_a_job_depends_on_the_library_modules_its_script_reaches():
     assert "planner" not in imported_library_modules(scripts / "whitney_curve.py")
     hashes = {script_library_hash(scripts / f"{name}.py") for name in ("plan", "whitney_curve")}
     assert len(hashes) == 2
+
+
+@pytest.mark.slow
+def test_pih_aggregate_reproduces_the_workflows_tables(smoke_run, tmp_path):
+    """`pih aggregate results` pools the study's own runs and redeployments into the same
+    success and robustness numbers as the workflow (each redeployment attached to its run,
+    even where two runs hold identical data)."""
+    out = tmp_path / "pooled"
+    subprocess.run(
+        [sys.executable, "-m", "pih", "aggregate", "results", "--output-dir", str(out)],
+        cwd=smoke_run,
+        check=True,
+        capture_output=True,
+    )
+    summary = smoke_run / "results" / "planning" / "summary"
+    for name, keys in (("robustness", ["method", "start_std_m"]), ("success", ["method"])):
+        workflow = pd.read_parquet(summary / f"{name}.parquet")
+        pooled = pd.read_parquet(out / f"{name}.parquet")
+        if name == "success":
+            workflow, pooled = (t[t["dimension"] == "all"] for t in (workflow, pooled))
+        columns = [*keys, "runs", "deploy_success_rate"]
+        expected = workflow[columns].sort_values(keys).reset_index(drop=True)
+        assert pooled[columns].sort_values(keys).reset_index(drop=True).equals(expected), name

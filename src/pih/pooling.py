@@ -150,7 +150,8 @@ def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
     seed key) must agree in every training rollout and count once; each training's headline
     record is at the smallest std at which every training has a record; runs may differ only in
     their sweep levels; runs at the same levels but the method's must share their draws (and
-    only those). Redeployments attach to the run they redeployed, found by its data's hash."""
+    only those). Redeployments attach to the run they redeployed, found by its data's hash and
+    its directory (the sweep point)."""
     # In path order, so that which copy heads a training does not depend on the arguments' order.
     records = sorted((RunRecord.read(path) for path in run_files), key=lambda run: str(run.path))
     swept = dict.fromkeys(k for run in records for k in run.record["sweep_point"])
@@ -182,10 +183,14 @@ def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
             if role == "deployment":
                 rate = _deploy_rate(pd.read_parquet(run.path, columns=["phase", "success"]))
                 deployments.append(_deployment(lead, keys, name[training], run.start_std_m, rate))
-    by_hash = {run.sha256: run for run in records} if redeploy_files else {}
+    by_hash: dict[str, list[RunRecord]] = {}
+    for run in records if redeploy_files else []:
+        by_hash.setdefault(run.sha256, []).append(run)
     for path in redeploy_files:
         for source, redeployed_std, rate in _redeployments(path):
-            run = by_hash.get(source[1]) or _outside_run(path, *source)
+            run = _redeployed_run(by_hash.get(source[1], []), Path(source[0])) or _outside_run(
+                path, *source
+            )
             if run.training not in headline:
                 raise ConfigError(f"{path}: redeploys {run.path}, not one of the pooled trainings")
             lead = headline[run.training]
@@ -332,6 +337,15 @@ def _deployment(
 
 def _source(path: Path, run: str, std: float, role: str) -> dict[str, Any]:
     return {"file": str(path), "run": run, "start_std_m": std, "role": role}
+
+
+def _redeployed_run(candidates: list[RunRecord], source: Path) -> RunRecord | None:
+    """The pooled run a redeployment redeployed: among the runs with its input's data hash, the
+    one in the directory (sweep point) it names. Two runs can hold identical data (e.g. both
+    rules' runs before either found the hole, in a short study): the hash alone would attach
+    both redeployments to one of them."""
+    named = [run for run in candidates if run.path.parent.name == source.parent.name]
+    return (named or candidates or [None])[0]
 
 
 def _redeployments(path: Path) -> list[tuple[tuple[str, str], float, float]]:
