@@ -5,7 +5,6 @@ what it means, in the schema and in docs/configuration.md."""
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -69,12 +68,9 @@ def test_pih_aggregate_imports_no_drake(tmp_path):
 def test_building_the_job_graph_imports_no_drake(tmp_path):
     """``snakemake -n``: the Snakefile and its rules, parsed and planned in Snakemake's own
     process (a dry run starts no job), never import pydrake."""
-    for name in ("Snakefile", "workflow", "config", "profiles"):
-        source = ROOT / name
-        if source.is_dir():
-            shutil.copytree(source, tmp_path / name)
-        else:
-            shutil.copy(source, tmp_path / name)
+    from test_workflow import copy_workflow
+
+    copy_workflow(tmp_path)
     result = subprocess.run(
         [sys.executable, "-X", "importtime", "-m", "snakemake", "-n"]
         + ["--cores", "1", "--configfile", "config/smoke.yaml"],
