@@ -17,7 +17,7 @@ min_version("9.0")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 # Drake allocates and frees its contact model every step; tcmalloc (Debian libtcmalloc-minimal4)
-# or jemalloc (libjemalloc2) runs the same rollouts 1.3-1.5x faster than glibc's malloc, with
+# or jemalloc (libjemalloc2) runs the same rollouts 1.2-1.4x faster than glibc's malloc, with
 # bit-identical results (docs/simulation.md). Preloaded into every job when installed; each
 # output's provenance names the allocator that ran.
 os.environ.setdefault("LD_PRELOAD", preloaded_allocator())
