@@ -27,7 +27,6 @@ import argparse
 import json
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -36,9 +35,9 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from pih.config import from_mapping, to_mapping
-from pih.planner import Planner
+from pih.planner import Planner, RolloutWorkers
 from pih.planner_config import PlannerConfig
-from pih.run_record import RecordedRun, recorded_rollout
+from pih.run_record import RecordedRun, recorded_rollout, succeeded
 from pih.scene_config import SceneConfig
 from pih.study_config import load_config
 
@@ -97,31 +96,18 @@ def read_set(path: Path) -> tuple[pd.DataFrame, PlannerConfig]:
     return pd.read_parquet(path), planner
 
 
-_PLANNER: Planner | None = None
-
-
-def _start(scene: SceneConfig, planner: PlannerConfig) -> None:
-    global _PLANNER
-    _PLANNER = Planner.from_configs(scene, planner)
-
-
-def _replay(row: dict) -> tuple[bool, float, float]:
-    """(inserted: |P2 − H| within tolerance and not diverged; final P2 x, y)."""
-    assert _PLANNER is not None
-    start, target, weights, sensed = recorded_rollout(pd.Series(row))
-    trace, _ = _PLANNER.evaluate(_PLANNER.dmp(start, target), weights, sensed)
-    tip = trace.q_peg_bottom[-1]
-    error = float(np.hypot(*(tip[:2] - _PLANNER.scene.hole_pose[:2])))
-    inserted = trace.ok and error <= _PLANNER.config.success_tolerance_m
-    return inserted, float(tip[0]), float(tip[1])
-
-
 def replay_all(
-    rows: pd.DataFrame, scene: SceneConfig, planner: PlannerConfig, workers: int
+    rows: pd.DataFrame, scene: SceneConfig, planner_config: PlannerConfig, workers: int
 ) -> np.ndarray:
-    records = rows.to_dict("records")
-    with ProcessPoolExecutor(workers, initializer=_start, initargs=(scene, planner)) as pool:
-        return np.array(list(pool.map(_replay, records, chunksize=4)), dtype=float)
+    """Per row: (inserted as the ``success`` column defines it, final P2 x, final P2 y)."""
+    planner = Planner.from_configs(scene, planner_config)
+    rollouts = [recorded_rollout(row) for _, row in rows.iterrows()]
+    with RolloutWorkers(planner, workers) as pool:
+        traces = [trace for trace, _ in pool.evaluate(rollouts)]
+    hole, tolerance = planner.scene.hole_pose, planner_config.success_tolerance_m
+    return np.array(
+        [(succeeded(t, hole, tolerance), *t.q_peg_bottom[-1][:2]) for t in traces], dtype=float
+    )
 
 
 def main() -> int:
@@ -132,7 +118,9 @@ def main() -> int:
     parser.add_argument("--time-step-s", type=float, help="the step h to check (default: config's)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--draw-from", nargs="+", type=Path, metavar="ROLLOUTS")
-    parser.add_argument("--output", type=Path, help="Parquet of every rollout's outcome at h and h/2")
+    parser.add_argument(
+        "--output", type=Path, help="Parquet of every rollout's outcome at h and h/2"
+    )
     args = parser.parse_args()
 
     if args.draw_from:
@@ -155,8 +143,10 @@ def main() -> int:
     flips = inserted_h != inserted_half
     dp2_um = 1e6 * np.hypot(*(outcomes["h"][:, 1:] - outcomes["h/2"][:, 1:]).T)
     n = len(rows)
-    print(f"{n} recorded rollouts at h = {1e3 * step:g} ms and h/2 ({seconds['h']:.0f} s and "
-          f"{seconds['h/2']:.0f} s with {args.workers} workers)")
+    print(
+        f"{n} recorded rollouts at h = {1e3 * step:g} ms and h/2 ({seconds['h']:.0f} s and "
+        f"{seconds['h/2']:.0f} s with {args.workers} workers)"
+    )
     for method, group in rows.groupby("method"):
         idx = group.index.to_numpy()
         print(
@@ -167,14 +157,19 @@ def main() -> int:
         per_rollout = rows[["run", "method", "iteration", "rollout"]].assign(
             inserted_h=inserted_h,
             inserted_half=inserted_half,
-            **{f"p2_{c}_m_{n}": outcomes[k][:, i + 1] for i, c in enumerate("xy") for k, n in
-               (("h", "h"), ("h/2", "half"))},
+            **{
+                f"p2_{c}_m_{n}": outcomes[k][:, i + 1]
+                for i, c in enumerate("xy")
+                for k, n in (("h", "h"), ("h/2", "half"))
+            },
         )
         per_rollout.to_parquet(args.output)
     toward = int((flips & inserted_h).sum())
     print(f"  of the flips, {toward} insert at h only and {int(flips.sum()) - toward} at h/2 only")
     verdict = "PASS" if 1 - flips.mean() >= AGREEMENT else "FAIL"
-    print(f"flips={int(flips.sum())} of {n} median_dp2_um={np.median(dp2_um):.3g} verdict={verdict}")
+    print(
+        f"flips={int(flips.sum())} of {n} median_dp2_um={np.median(dp2_um):.3g} verdict={verdict}"
+    )
     return 0
 
 

@@ -123,8 +123,10 @@ def test_stale_published_runs_are_named(tmp_path):
         "planning/s~0/rollouts.parquet: made by other rollout code",
         "planning/s~1/rollouts.parquet: made by other rollout code",
     ]
-    changed = {**expected, point_key({"s": 1}): {"scene": {"solver": {"time_step_s": 0.002}},
-                                                  "planner": {"seed": 1}}}
+    changed = {
+        **expected,
+        point_key({"s": 1}): {"scene": {"solver": {"time_step_s": 0.002}}, "planner": {"seed": 1}},
+    }
     assert stale_reasons(tmp_path, changed) == [
         "s~1: its scene config differs in solver.time_step_s"
     ]

@@ -48,7 +48,7 @@ def test_queries_select_the_rows_pandas_would(query, rows):
         ("phase == 'deploy' rollout == 1", "unexpected 'rollout'"),
         ("and phase == 'deploy'", "expected a column name"),
         ("@Path.home.__globals__['os'].system('id') == 0", "cannot read"),
-        ("__import__('os').system('id') == 0", "cannot read the query from \".system"),
+        ("__import__('os').system('id') == 0", 'cannot read the query from ".system'),
         ("phase.upper() == 'DEPLOY'", "cannot read"),
         ("cost < 'a'", "cost < 'a'"),
     ],

@@ -474,7 +474,7 @@ def _replay(run: Path, query: str, output: Path | None, settings: list[str]) -> 
     from pih.provenance import record as provenance_record
     from pih.recordings import record_insertion
     from pih.row_query import select_rows
-    from pih.run_record import RecordedRun, recorded_pose, recorded_rollout
+    from pih.run_record import RecordedRun, recorded_pose, recorded_rollout, succeeded
     from pih.study_config import scene_with
 
     try:
@@ -509,7 +509,7 @@ def _replay(run: Path, query: str, output: Path | None, settings: list[str]) -> 
         start, target, weights, sensed = recorded_rollout(row)
         trace, _ = planner.evaluate(planner.dmp(start, target), weights, sensed)
         replayed = trace.q_peg_bottom[-1]
-        inserted = trace.ok and float(np.hypot(*(replayed[:2] - hole[:2]))) <= tolerance
+        inserted = succeeded(trace, hole, tolerance)
         same = np.array_equal(replayed, recorded_pose(row, "final_bottom"))
         differs += not same
         if index == 0:

@@ -117,25 +117,33 @@ def _rows(path: Path, keys: tuple[str, ...], numbers: tuple[str, ...]) -> dict[s
     }
 
 
-def headline_differences(old: Path, new: Path, rtol: float) -> Iterator[Difference]:
-    """Every headline number (:data:`HEADLINE_TABLES`) that is missing from one tree or differs."""
+def headline_differences(old: Path, new: Path, rtol: float) -> tuple[list[Difference], int]:
+    """Every headline number (:data:`HEADLINE_TABLES`) that is missing from one tree or differs,
+    and how many numbers ``old`` holds."""
+    differences, compared = [], 0
     for table, keys, numbers in HEADLINE_TABLES:
         paths = old / table, new / table
-        missing = [p for p in paths if not p.is_file()]
-        if missing:
-            if len(missing) == 1:
-                yield Difference(table, "file", *("missing" if p in missing else "present" for p in paths))
+        missing = [not p.is_file() for p in paths]
+        if any(missing):
+            if not all(missing):
+                differences.append(Difference(table, "file", *map(_presence, missing)))
             continue
         before, after = (_rows(p, keys, numbers) for p in paths)
+        compared += len(before) * len(numbers)
         for row in sorted(set(before) | set(after)):
             if row not in before or row not in after:
-                yield Difference(table, row, "present" if row in before else "missing",
-                                 "present" if row in after else "missing")
+                presence = (row not in before, row not in after)
+                differences.append(Difference(table, row, *map(_presence, presence)))
                 continue
             for column in numbers:
                 a, b = before[row].get(column), after[row].get(column)
                 if not _same(a, b, rtol):
-                    yield Difference(table, f"{row}: {column}", a, b)
+                    differences.append(Difference(table, f"{row}: {column}", a, b))
+    return differences, compared
+
+
+def _presence(missing: bool) -> str:
+    return "missing" if missing else "present"
 
 
 def run_files(tree: Path) -> dict[str, Path]:
@@ -150,8 +158,9 @@ def run_differences(old: Path, new: Path) -> Iterator[Difference]:
     before, after = run_files(old), run_files(new)
     for name in sorted(set(before) | set(after)):
         if name not in before or name not in after:
-            yield Difference(name, "run file", "present" if name in before else "missing",
-                             "present" if name in after else "missing")
+            yield Difference(
+                name, "run file", _presence(name not in before), _presence(name not in after)
+            )
         elif input_sha256(before[name]) != input_sha256(after[name]):
             yield Difference(name, "data", "one table", "another")
 
@@ -161,12 +170,9 @@ def compare(old: Path, new: Path, rtol: float = 1e-9) -> tuple[list[Difference],
     for tree in (old, new):
         if not (tree / "planning").is_dir() and not (tree / "validation").is_dir():
             raise FileNotFoundError(f"{tree}: not a results tree (no planning/ or validation/)")
-    differences = [*headline_differences(old, new, rtol), *run_differences(old, new)]
-    compared = len(set(run_files(old)) | set(run_files(new)))
-    for table, keys, numbers in HEADLINE_TABLES:
-        if (old / table).is_file():
-            compared += len(_rows(old / table, keys, numbers)) * len(numbers)
-    return differences, compared
+    differences, compared = headline_differences(old, new, rtol)
+    differences += run_differences(old, new)
+    return differences, compared + len(set(run_files(old)) | set(run_files(new)))
 
 
 def publish(results: Path, destination: Path = PUBLISHED_DIR) -> int:

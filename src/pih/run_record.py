@@ -25,6 +25,18 @@ if TYPE_CHECKING:
     from pih.scene import PegInHoleScene
     from pih.trace import Trace
 
+
+def hole_error_m(q_bottom: NDArray[np.float64], hole_xy: NDArray[np.float64]) -> float:
+    """True |P2 − H| in (x, y) of a tip pose."""
+    return float(np.hypot(*(q_bottom[:2] - hole_xy[:2])))
+
+
+def succeeded(trace: Trace, hole_xy: NDArray[np.float64], tolerance_m: float) -> bool:
+    """A rollout's ``success``: not diverged, and its tip P2 ends within ``tolerance_m`` of the
+    true hole H in (x, y)."""
+    return bool(trace.ok and hole_error_m(trace.q_peg_bottom[-1], hole_xy) <= tolerance_m)
+
+
 ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
     "phase": (
         "",
@@ -158,7 +170,7 @@ class RunRecorder:
         for r, (rollout, trace, term, cost) in enumerate(zip(batch, traces, terms, costs)):
             start, target, weights, sensed = rollout
             final = trace.q_peg_bottom[-1] if len(trace) else np.full(3, np.nan)
-            error = float(np.hypot(*(final[:2] - self.hole_xy)))
+            error = hole_error_m(final, self.hole_xy)
             self.rows.append(
                 {
                     "phase": phase,
@@ -177,7 +189,7 @@ class RunRecorder:
                     "weights": np.asarray(weights, dtype=float).copy(),
                     **_pose_columns("final_bottom", final),
                     "final_hole_error_m": error,
-                    "success": bool(trace.ok and error <= self.tolerance_m),
+                    "success": succeeded(trace, self.hole_xy, self.tolerance_m),
                     "is_best": False,
                     "status": trace.status,
                     "reason": trace.reason,

@@ -125,7 +125,9 @@ def planning_rows(success: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFra
                 "paper": PAPER_PLANNING.get(row["method"], ""),
                 "runs": row["runs"],
                 f"from starts {1e3 * std:g} mm off" if std else "from offset starts": (
-                    _interval(off["deploy_success_rate"], off["deploy_ci_low"], off["deploy_ci_high"])
+                    _interval(
+                        off["deploy_success_rate"], off["deploy_ci_low"], off["deploy_ci_high"]
+                    )
                     if off is not None
                     else "— (not redeployed)"
                 ),
@@ -168,7 +170,7 @@ def study_header(study: Mapping[str, object], code_version: str) -> str:
         ""
         if study["default"]
         else "\n> **Not the default study**: the config above changes `config/config.yaml`, so "
-        "these numbers are not the published ones (README, \"Results\"); a reduced budget "
+        'these numbers are not the published ones (README, "Results"); a reduced budget '
         "(e.g. the smoke study's) is a check of the code paths, not a result.\n"
     )
     return f"""Study: {files}; budget {study["iterations"]} iterations × \
