@@ -197,12 +197,18 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "publish":
         from pih.published import PUBLISHED_DIR, publish, readme_with_results, results_block
 
+        readme = Path("README.md")
+        if not readme.is_file():
+            print(
+                "pih publish: run it from the repository's root (no README.md here)",
+                file=sys.stderr,
+            )
+            return 1
         try:
             copied = publish(args.results)
         except OSError as error:
             print(f"pih publish: {_first_line(error)}", file=sys.stderr)
             return 1
-        readme = Path("README.md")
         readme.write_text(readme_with_results(readme.read_text(), results_block(PUBLISHED_DIR)))
         print(f"{PUBLISHED_DIR}: {copied} files from {args.results}; README.md's results table")
         return 0
@@ -497,9 +503,13 @@ def _replay(run: Path, query: str, output: Path | None, settings: list[str]) -> 
         if "weights" not in rollouts:
             why = "it predates recorded weights"
         else:
-            why = f"no row matches {query!r}; " + ", ".join(
-                f"{c} {rollouts[c].min()}–{rollouts[c].max()}" for c in ("iteration", "rollout")
-            ) + f", phases {', '.join(sorted(rollouts['phase'].unique()))}"
+            why = (
+                f"no row matches {query!r}; "
+                + ", ".join(
+                    f"{c} {rollouts[c].min()}–{rollouts[c].max()}" for c in ("iteration", "rollout")
+                )
+                + f", phases {', '.join(sorted(rollouts['phase'].unique()))}"
+            )
         print(f"pih replay {run}: nothing to replay ({why})", file=sys.stderr)
         return 1
     planner = Planner.from_configs(scene, recorded.planner)
