@@ -754,14 +754,40 @@ def test_a_bad_config_is_one_line_before_any_job(workdir, text, line):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("text", ["", "- a\n- b\n", "{{{{ garbage ::: [\n", "a:\n\tb: 1\n"])
-def test_a_config_file_snakemake_cannot_read_stops_without_a_traceback(workdir, text):
-    """Snakemake reads --configfile files before the Snakefile runs, so these messages are its
-    own (snakemake/snakemake#2439: they name no file); they are short and stop before any job."""
+@pytest.mark.parametrize(
+    ("text", "what"),
+    [
+        ("", "empty; expected a mapping"),
+        ("- a\n- b\n", "a list, not a mapping"),
+        ("{{{{ garbage ::: [\n", "line 2, column 1: not valid YAML"),
+        ("a:\n\tb: 1\n", "line 2, column 1: not valid YAML"),
+    ],
+)
+def test_a_config_file_snakemake_cannot_read_is_one_line_naming_it(workdir, text, what):
+    """Snakemake reads --configfile files before the Snakefile runs and its message names no
+    file (snakemake/snakemake#2439); the pih console names it, in the workflow's one-line form."""
     result = dry_run(workdir, text)
     assert result.returncode == 1
-    assert "Traceback" not in result.stderr and len(config_lines(result)) <= 2
+    assert "Traceback" not in result.stderr
+    lines = config_lines(result)
+    assert len(lines) == 1 and lines[0].startswith("config error: bad.yaml"), lines
+    assert what in lines[0]
     assert not (workdir / "results").exists()
+
+
+def test_the_console_names_the_config_file_snakemake_could_not_read(tmp_path, monkeypatch):
+    from pih.console import config_file_error, configfile_arguments
+
+    good, bad = tmp_path / "good.yaml", tmp_path / "bad.yaml"
+    good.write_text("planner: {iterations: 3}\n")
+    bad.write_text("- a list\n")
+    argv = ["snakemake", "-j2", "--configfile", str(good), str(bad), "-n"]
+    assert configfile_arguments(argv) == [str(good), str(bad)]
+    assert configfile_arguments(["snakemake", f"--configfile={bad}", "x"]) == [str(bad)]
+    message = "WorkflowError:\nConfig file must be given as JSON or YAML with keys at top level."
+    line = config_file_error(message, argv)
+    assert line.startswith(f"config error: {bad}: a list, not a mapping")
+    assert config_file_error("WorkflowError:\nsomething else", argv) is None
 
 
 @pytest.mark.slow

@@ -31,9 +31,47 @@ from snakemake_interface_logger_plugins.base import LogHandlerBase
 from snakemake_interface_logger_plugins.common import LogEvent
 from snakemake_interface_logger_plugins.settings import LogHandlerSettingsBase
 
+CONFIG_FILE_ERRORS = (
+    "Config file must be given as JSON or YAML with keys at top level",
+    "Config file is not valid JSON or YAML",
+)
+"""Snakemake's messages for a ``--configfile`` it cannot read: it reads them before the Snakefile
+and names no file, so :func:`config_file_error` names it."""
+
 QUIET_MESSAGES = ("Select jobs to execute...",)
 """Snakemake's scheduler note, printed each time it starts jobs (as is "Execute N jobs..."): the
 job lines say it."""
+
+
+def configfile_arguments(argv: list[str]) -> list[str]:
+    """The paths given to ``--configfile``/``--configfiles`` on a Snakemake command line."""
+    paths, taking = [], False
+    for arg in argv[1:]:
+        name, sep, value = arg.partition("=")
+        if name in ("--configfile", "--configfiles"):
+            taking = not sep
+            paths += [value] if sep else []
+        elif arg.startswith("-"):
+            taking = False
+        elif taking:
+            paths.append(arg)
+    return paths
+
+
+def config_file_error(message: str, argv: list[str]) -> str | None:
+    """For Snakemake's error about an unreadable config file, the one line that names the file
+    and what is wrong with it (:func:`pih.study_config.load_config_file`); None otherwise."""
+    if not any(known in message for known in CONFIG_FILE_ERRORS):
+        return None
+    from pih.config import ConfigError
+    from pih.study_config import load_config_file
+
+    for path in configfile_arguments(argv):
+        try:
+            load_config_file(path)
+        except ConfigError as error:
+            return f"config error: {error}"
+    return None
 
 
 def duration(seconds: float) -> str:
@@ -101,6 +139,10 @@ class JobLines:
             )
         if event == LogEvent.JOB_STARTED or record.getMessage() in QUIET_MESSAGES:
             return ""
+        if record.levelno >= logging.ERROR:
+            named = config_file_error(record.getMessage(), sys.argv)
+            if named:
+                return named
         return self.default.format(record)
 
     def job_info(self, info: dict[str, Any]) -> str:
