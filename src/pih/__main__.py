@@ -620,20 +620,10 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
 def _aggregate(paths: list[Path], output_dir: Path, reference_variant: str | None) -> int:
     import pandas as pd
 
-    from pih import plots
-    from pih.aggregate import (
-        BAND_COLUMNS,
-        BEST_COST_COLUMNS,
-        PAIRED_COLUMNS,
-        SEED_KEY,
-        SUCCESS_COLUMNS,
-        figure_bands,
-        level_columns,
-        planning_tables,
-        robustness_columns,
-    )
+    from pih.aggregate import planning_tables
     from pih.config import ConfigError
-    from pih.outputs import markdown_table, write_table, write_text
+    from pih.outputs import write_table
+    from pih.planning_summary import write_planning_summary
     from pih.pooling import SOURCE_COLUMNS, find_outputs, pool
     from pih.provenance import record as provenance_record
 
@@ -665,35 +655,9 @@ def _aggregate(paths: list[Path], output_dir: Path, reference_variant: str | Non
     provenance = provenance_record(
         "aggregate", config={"sweep_keys": keys}, inputs=sorted(set(pooled.sources["file"]))
     )
-    outputs = {
-        "runs": (pooled.runs, {**BEST_COST_COLUMNS, **level_columns(keys)}),
-        "cost_bands": (tables.bands, BAND_COLUMNS),
-        "success": (tables.success, SUCCESS_COLUMNS),
-        "paired": (tables.paired, PAIRED_COLUMNS),
-        "robustness": (tables.robustness, robustness_columns(keys)),
-        "sources": (pooled.sources, SOURCE_COLUMNS),
-    }
-    for name, (frame, columns) in outputs.items():
-        write_table(frame, output_dir / f"{name}.parquet", provenance, columns)
-    for name in ("success", "paired", "robustness"):
-        write_text(output_dir / f"{name}.md", markdown_table(outputs[name][0]), provenance)
-    plots.save(
-        plots.cost_band_figure(figure_bands(tables.bands)),
-        output_dir / "fig9_cost_bands.png",
-        output_dir / "fig9_cost_bands.pdf",
-        provenance=provenance,
-    )
-    # Per start and per compared dimension; seeds only replicate, and a dimension with one level
-    # repeats "all".
+    write_planning_summary(output_dir, pooled.runs, tables, keys, provenance)
+    write_table(pooled.sources, output_dir / "sources.parquet", provenance, SOURCE_COLUMNS)
     success = tables.success
-    levels = success.groupby("dimension")["level"].nunique()
-    shown = [d for d, n in levels.items() if d == "all" or (n > 1 and d != SEED_KEY)]
-    compared = success[success["dimension"].isin(shown)]
-    plots.save(
-        plots.deploy_success_figure(compared),
-        output_dir / "fig_deploy_success.png",
-        provenance=provenance,
-    )
     overall = success[success["dimension"] == "all"]
     with pd.option_context("display.width", 200, "display.max_columns", 12):
         print(f"{len(pooled.summaries)} trainings, sweep keys {keys}")
