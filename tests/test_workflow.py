@@ -142,7 +142,9 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
     assert jobs["plan"] == 2  # not 2 x the default's starts and seeds
     assert "Fig. 8 shows the first sweep point" in result.stdout + result.stderr
     default = planned_jobs(snakemake(work, "-n"))
-    assert default["plan"] == 11 * 3  # the paper's starts x {one-level, two rules}, one seed
+    assert default["plan"] == 4 * 3  # 4 of the paper's starts x {one-level, two rules}, one seed
+    paper = planned_jobs(snakemake(work, "-n", "--configfile", "config/paper.yaml"))
+    assert paper["plan"] == 11 * 3  # all of the paper's starts
     full = planned_jobs(snakemake(work, "-n", "--configfile", "config/full.yaml"))
     assert full["plan"] == 11 * 3 * 5
     ablations = planned_jobs(snakemake(work, "-n", "--configfile", "config/ablations.yaml"))
