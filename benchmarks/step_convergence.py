@@ -104,9 +104,16 @@ def replay_all(
     rollouts = [recorded_rollout(row) for _, row in rows.iterrows()]
     with RolloutWorkers(planner, workers) as pool:
         traces = [trace for trace, _ in pool.evaluate(rollouts)]
-    hole, tolerance = planner.scene.hole_pose, planner_config.success_tolerance_m
+    tolerance = planner_config.success_tolerance_m
+    holes = [
+        planner.scene.hole_pose if r.simulated_hole is None else r.simulated_hole for r in rollouts
+    ]
     return np.array(
-        [(succeeded(t, hole, tolerance), *t.q_peg_bottom[-1][:2]) for t in traces], dtype=float
+        [
+            (succeeded(t, hole, tolerance), *t.q_peg_bottom[-1][:2])
+            for t, hole in zip(traces, holes, strict=True)
+        ],
+        dtype=float,
     )
 
 

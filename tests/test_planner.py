@@ -392,9 +392,9 @@ def test_a_recorded_rollout_replays_exactly(tiny_runs):
     config = short_config(iterations=2, population_size=3, deploy_policy="final_mean")
     planner = Planner.from_configs(COARSE, config)
     for _, row in rows[rows["phase"].isin(["train", "deploy"])].iloc[[1, -1]].iterrows():
-        start, target, weights, sensed = recorded_rollout(row)
-        assert weights.shape == (3 * config.dmp.n_basis,)
-        trace, terms = planner.evaluate(planner.dmp(start, target), weights, sensed)
+        rollout = recorded_rollout(row)
+        assert rollout.weights.shape == (3 * config.dmp.n_basis,)
+        trace, terms = planner.evaluate_rollout(rollout)
         assert np.array_equal(
             trace.q_peg_bottom[-1],
             row[["final_bottom_x_m", "final_bottom_y_m", "final_bottom_theta_rad"]].to_numpy(float),

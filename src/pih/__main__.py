@@ -516,10 +516,11 @@ def _replay(run: Path, query: str, output: Path | None, settings: list[str]) -> 
     hole, tolerance = planner.scene.hole_pose, recorded.planner.success_tolerance_m
     differs = 0
     for index, (_, row) in enumerate(rows.iterrows()):
-        start, target, weights, sensed = recorded_rollout(row)
-        trace, _ = planner.evaluate(planner.dmp(start, target), weights, sensed)
+        rollout = recorded_rollout(row)
+        trace, _ = planner.evaluate_rollout(rollout)
         replayed = trace.q_peg_bottom[-1]
-        inserted = succeeded(trace, hole, tolerance)
+        simulated = hole if rollout.simulated_hole is None else rollout.simulated_hole
+        inserted = succeeded(trace, simulated, tolerance)
         same = np.array_equal(replayed, recorded_pose(row, "final_bottom"))
         differs += not same
         if index == 0:

@@ -2,16 +2,19 @@
 
 Each iteration i:
 
-1. **Sense** the hole: x̃_H ~ N(x_H + μ_x, σ_x²), y_H and θ_H exact (eq. 16b), drawn from the
-   run's seeded generator: anew every iteration (Algorithm 1) or once per run
-   (``sensing.redraw``); the same for all of that iteration's rollouts.
+1. **Sense** the hole: x̃_H ~ N(x_H + μ_x, σ_x²), y_H and θ_H exact (eq. 16b; or noisy with
+   ``sensing.y_std_m``, ``theta_std_rad``), drawn from the run's seeded generator: anew every
+   iteration (Algorithm 1) or once per run (``sensing.redraw``); the same for all of that
+   iteration's rollouts.
 2. **Goal** q_R(T) of the DMP. The robot frame R rests on the peg top P1, so "put the peg tip
    P2 at pose q" means q_R(T) = q_P1 of the peg whose P2 is at q (the frame offset of eq. 4–5).
    *One-level*: q = q̃_H. *Bilevel*: the outer level (:mod:`pih.outer`); the paper's rule is
    q = arg min J_out(q_P2, q̃_H) (eq. 15–16) over Q_P, the P2 poses explored by the previous
    iteration's non-diverged rollouts. In the first iteration both methods use q̃_H (§3.3).
 3. **Rollouts**: r weight vectors W ~ N(W*, σ_W) (eq. 12, or CMA-ES) → DMP (eq. A1) →
-   simulator (eq. 1) → inner cost J_inn (eq. 11, :mod:`pih.costs`).
+   simulator (eq. 1) → inner cost J_inn (eq. 11, :mod:`pih.costs`). The simulator has the real
+   hole (the paper), or with ``simulated_hole`` the sensed one: the run's first q̃_H, or each
+   iteration's.
 4. **Update** W* from the costs (eq. 13, or CMA-ES).
 
 After the last iteration the learned policy W* is **deployed** ``deploy_trials`` times, each
@@ -43,7 +46,14 @@ from pih.dmp import Dmp
 from pih.optimizers import make_optimizer
 from pih.outer import OuterLevel
 from pih.planner_config import PlannerConfig
-from pih.run_record import ROLLOUT_COLUMNS, IterationReport, RunRecord, RunRecorder, recorded_pose
+from pih.run_record import (
+    ROLLOUT_COLUMNS,
+    IterationReport,
+    Rollout,
+    RunRecord,
+    RunRecorder,
+    recorded_pose,
+)
 from pih.scene import PegInHoleScene
 from pih.scene_config import SceneConfig
 from pih.trace import RobotTrajectory, Trace
@@ -63,11 +73,14 @@ def run_seeds(config: PlannerConfig, seed_key: str = "") -> dict[str, int]:
 
 
 class Planner:
-    """Algorithm 1 on one scene. The scene (and its Drake diagram) is reused by every rollout."""
+    """Algorithm 1 on one scene, the real one. The scene (and its Drake diagram) is reused by
+    every rollout; with ``simulated_hole`` training rollouts run on a copy whose hole sits at a
+    sensed pose (the latest such copy is kept)."""
 
     def __init__(self, scene: PegInHoleScene, config: PlannerConfig, seed_key: str = "") -> None:
         config.validate()
         self.scene = scene
+        self._simulated: tuple[bytes, PegInHoleScene] | None = None
         self.config = config
         self.seeds = run_seeds(config, seed_key)
         hole = scene.config.hole
@@ -89,10 +102,38 @@ class Planner:
         return cls(PegInHoleScene(scene_config), config, seed_key)
 
     def sense_hole(self, rng: np.random.Generator) -> NDArray[np.float64]:
-        """q̃_H = [N(x_H + μ_x, σ_x²), y_H, θ_H] (eq. 16b)."""
+        """q̃_H = [N(x_H + μ_x, σ_x²), y_H, θ_H] (eq. 16b); y_H and θ_H drawn around the truth
+        only when ``sensing.y_std_m`` / ``theta_std_rad`` > 0 (the x stream is unchanged)."""
         truth = self.scene.hole_pose
         sensing = self.config.sensing
-        return np.array([rng.normal(truth[0] + sensing.bias_m, sensing.std_m), truth[1], truth[2]])
+        sensed = np.array([rng.normal(truth[0] + sensing.bias_m, sensing.std_m), *truth[1:]])
+        for axis, std in ((1, sensing.y_std_m), (2, sensing.theta_std_rad)):
+            if std > 0:
+                sensed[axis] = rng.normal(truth[axis], std)
+        return sensed
+
+    def scene_for(self, simulated_hole: NDArray[np.float64] | None) -> PegInHoleScene:
+        """The scene a rollout simulates: the real one, or (``simulated_hole`` given and not the
+        real hole) a copy with the hole frame H at that pose's x and y."""
+        if simulated_hole is None or np.array_equal(simulated_hole, self.scene.hole_pose):
+            return self.scene
+        key = np.asarray(simulated_hole, float).tobytes()
+        if self._simulated is None or self._simulated[0] != key:
+            config = self.scene.config.replace(
+                hole__x_m=float(simulated_hole[0]), hole__y_m=float(simulated_hole[1])
+            )
+            self._simulated = (key, PegInHoleScene(config))
+        return self._simulated[1]
+
+    def simulated_hole(
+        self, sensed: NDArray[np.float64], first_sensed: NDArray[np.float64]
+    ) -> NDArray[np.float64] | None:
+        """Where a training rollout's simulator puts the hole (``simulated_hole``); None: the
+        real hole."""
+        mode = self.config.simulated_hole
+        if mode == "true_hole":
+            return None
+        return (first_sensed if mode == "sensed_per_run" else sensed).copy()
 
     def dmp(self, start: NDArray[np.float64], target: NDArray[np.float64]) -> Dmp:
         """The DMP from the P1 pose of the peg whose tip P2 is at ``start`` to q_R(T), the P1 pose
@@ -100,12 +141,22 @@ class Planner:
         top = self.scene.peg_top_from_bottom
         return Dmp(self.config.dmp, top(start), top(target))
 
+    def evaluate_rollout(self, rollout: Rollout) -> tuple[Trace, CostTerms | None]:
+        """:meth:`evaluate` of a :class:`Rollout`, on the scene of its simulated hole."""
+        dmp = self.dmp(rollout.start, rollout.target)
+        return self.evaluate(dmp, rollout.weights, rollout.sensed_hole, rollout.simulated_hole)
+
     def evaluate(
-        self, dmp: Dmp, weights: NDArray[np.float64], sensed_hole: NDArray[np.float64]
+        self,
+        dmp: Dmp,
+        weights: NDArray[np.float64],
+        sensed_hole: NDArray[np.float64],
+        simulated_hole: NDArray[np.float64] | None = None,
     ) -> tuple[Trace, CostTerms | None]:
-        """One rollout: DMP → simulator → J_inn's terms (None if the simulation diverged)."""
+        """One rollout: DMP → simulator (:meth:`scene_for` ``simulated_hole``) → J_inn's terms
+        (None if the simulation diverged)."""
         poses, _ = dmp.rollout(weights, self.times_s)
-        trace = self.scene.rollout(RobotTrajectory(self.times_s, poses))
+        trace = self.scene_for(simulated_hole).rollout(RobotTrajectory(self.times_s, poses))
         if not trace.ok:
             return trace, None
         k = self.cost_samples
@@ -161,20 +212,24 @@ class Planner:
         evaluate_mean = cfg.deploy_policy == "last_inserted_mean"
         policy, deployed_iteration = None, None
         start_rng = np.random.default_rng(self.seeds["start"])
-        sensed = self.sense_hole(noise)
+        sensed = first_sensed = self.sense_hole(noise)
         for iteration in range(1, cfg.iterations + 1):
             if iteration > 1 and cfg.sensing.redraw == "per_iteration":
                 sensed = self.sense_hole(noise)
             target = self.target(outer, sensed)
+            simulated = self.simulated_hole(sensed, first_sensed)
             sigma = optimizer.sigma
             mean = optimizer.mean
             samples = optimizer.ask()
             train_std = cfg.train_start_std_m
-            batch = [(self.offset_start(start_rng, train_std), target, w, sensed) for w in samples]
+            batch = [
+                Rollout(self.offset_start(start_rng, train_std), target, w, sensed, simulated)
+                for w in samples
+            ]
             # Drawn under every deploy policy, so that the next training starts do not depend on it.
             mean_start = self.offset_start(start_rng, train_std)
             if evaluate_mean:
-                batch.append((mean_start, target, mean, sensed))
+                batch.append(Rollout(mean_start, target, mean, sensed, simulated))
             t0 = time.perf_counter()
             results = rollouts.evaluate(batch)
             rollout_seconds += time.perf_counter() - t0
@@ -198,7 +253,7 @@ class Planner:
         situations = self.deployment_trials(outer)
 
         def trials(weights: NDArray[np.float64]) -> list[Rollout]:
-            return [(start, target, weights, sensed) for start, target, sensed in situations]
+            return [Rollout(start, target, weights, sensed) for start, target, sensed in situations]
 
         final_mean = optimizer.mean
         deployed = trials(final_mean if policy is None else policy)
@@ -277,7 +332,7 @@ class Planner:
                     f"not where the record does (not the run's seeds)"
                 )
             weights = np.asarray(row["weights"], float)
-            trials.append((start, recorded_pose(row, "target"), weights, sensed))
+            trials.append(Rollout(start, recorded_pose(row, "target"), weights, sensed))
         return trials
 
     def redeploy(
@@ -316,15 +371,10 @@ class Planner:
         )
 
 
-Rollout = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
-"""One rollout to evaluate: (P2 pose at the start, P2 target of the DMP's goal, weights W,
-sensed hole q̃_H)."""
-
-
 class RolloutWorkers:
     """Evaluates a planner's rollouts in this process, or in ``workers`` processes that each
     build the same scene once (one Drake diagram per process). Rollouts are deterministic
-    given (target, W, q̃_H), and results come back in order, so the run does not depend on
+    given the :class:`Rollout`, and results come back in order, so the run does not depend on
     the number of workers. Use as a context manager."""
 
     def __init__(self, planner: Planner, workers: int = 1) -> None:
@@ -352,7 +402,7 @@ class RolloutWorkers:
 
     def evaluate(self, rollouts: list[Rollout]) -> list[tuple[Trace, CostTerms | None]]:
         if self._pool is None:
-            return [_evaluate(self.planner, rollout) for rollout in rollouts]
+            return [self.planner.evaluate_rollout(rollout) for rollout in rollouts]
         return list(self._pool.map(_evaluate_in_worker, rollouts))
 
 
@@ -364,11 +414,6 @@ def _start_worker(scene: SceneConfig, config: PlannerConfig) -> None:
     _WORKER_PLANNER = Planner(PegInHoleScene(scene), config)
 
 
-def _evaluate(planner: Planner, rollout: Rollout) -> tuple[Trace, CostTerms | None]:
-    start, target, weights, sensed = rollout
-    return planner.evaluate(planner.dmp(start, target), weights, sensed)
-
-
 def _evaluate_in_worker(rollout: Rollout) -> tuple[Trace, CostTerms | None]:
     assert _WORKER_PLANNER is not None
-    return _evaluate(_WORKER_PLANNER, rollout)
+    return _WORKER_PLANNER.evaluate_rollout(rollout)

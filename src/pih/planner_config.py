@@ -28,6 +28,8 @@ Redraw = Literal["per_iteration", "per_run"]
 OuterRule = Literal["explored_argmin", "deepest_explored"]
 GoalTilt = Literal["explored", "sensed"]
 DeployPolicy = Literal["final_mean", "last_inserted_mean"]
+SimulatedHole = Literal["true_hole", "sensed_per_run", "sensed_per_iteration"]
+SIMULATED_HOLES: tuple[str, ...] = ("true_hole", "sensed_per_run", "sensed_per_iteration")
 DEPLOY_POLICIES: tuple[str, ...] = ("final_mean", "last_inserted_mean")
 COST_TERMS: tuple[str, ...] = ("regularization", "spring_energy", "hole_distance")
 MAX_START_HEIGHT_M = 0.15
@@ -81,10 +83,17 @@ class CostConfig:
 
 @dataclass(frozen=True)
 class SensingConfig:
-    """Visual noise on the hole's x (paper §3.2) and the belief Σ_H of eq. 11 and 15."""
+    """Visual noise on the hole's pose (paper §3.2: x only) and the belief Σ_H of eq. 11 and 15."""
 
     bias_m: float = described(0.005, "μ_x, the bias of the sensed hole's x (Table 4)")
     std_m: float = described(0.005, "σ_x, the standard deviation of the sensed hole's x (Table 4)")
+    # The paper senses y_H and θ_H exactly (eq. 16b); these ask what noise on them costs.
+    y_std_m: float = described(
+        0.0, "standard deviation of the sensed hole's depth y_H; 0: exact, the paper (eq. 16b)"
+    )
+    theta_std_rad: float = described(
+        0.0, "standard deviation of the sensed hole's tilt θ_H; 0: exact, the paper (eq. 16b)"
+    )
     # x: the vision noise σ_x; y and θ are sensed exactly (eq. 16b), so their belief is tight:
     # 1 mm and 0.02 rad (with a loose θ belief the outer level picks tilted explored poses, and a
     # tilted goal jams the peg in the hole). A tight y makes J_out prefer explored poses at the
@@ -107,6 +116,9 @@ class SensingConfig:
             "a finite std >= 0 m",
             self.std_m,
         )
+        for key, unit in (("y_std_m", "m"), ("theta_std_rad", "rad")):
+            std = getattr(self, key)
+            require(math.isfinite(std) and std >= 0, prefix + key, f"a finite std >= 0 {unit}", std)
         require(
             all(math.isfinite(s) and s > 0 for s in self.hole_std),
             prefix + "hole_std",
@@ -216,6 +228,15 @@ class PlannerConfig:
         "start, x and y each N(0, σ²) from the run's start stream: robust training; 0: every "
         "training rollout starts at the nominal start, Algorithm 1 (not in the paper)",
     )
+    # Beyond the paper (docs/planner.md, "Planning on the sensed hole"): a robot plans in a
+    # simulator built from what its camera saw, then acts on the real hole.
+    simulated_hole: SimulatedHole = described(
+        "true_hole",
+        "where the training rollouts' simulator puts the hole: true_hole (the real hole, the "
+        "paper), sensed_per_run (at the run's first sensed pose q̃_H) or sensed_per_iteration "
+        "(at each iteration's q̃_H: planning over a distribution of holes); deployment trials "
+        "always run on the real hole",
+    )
     # 0 by default: the paper's bands compare runs over the same iterations.
     convergence_window: int = described(
         0,
@@ -262,6 +283,19 @@ class PlannerConfig:
             prefix + "deploy_policy",
             f"one of {list(DEPLOY_POLICIES)}",
             self.deploy_policy,
+        )
+        require(
+            self.simulated_hole in SIMULATED_HOLES,
+            prefix + "simulated_hole",
+            f"one of {list(SIMULATED_HOLES)}",
+            self.simulated_hole,
+        )
+        require(
+            self.simulated_hole == "true_hole" or self.sensing.theta_std_rad == 0,
+            prefix + "sensing.theta_std_rad",
+            f"0 when {prefix}simulated_hole is {self.simulated_hole!r} (the simulated hole "
+            "cannot tilt)",
+            self.sensing.theta_std_rad,
         )
         require(
             self.convergence_window == 0 or self.convergence_window >= 2,

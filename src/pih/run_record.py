@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -21,19 +21,30 @@ from pih.planner_config import COST_TERMS, PlannerConfig, replace
 from pih.scene_config import SceneConfig
 
 if TYPE_CHECKING:
-    from pih.planner import Rollout
     from pih.scene import PegInHoleScene
     from pih.trace import Trace
 
 
+class Rollout(NamedTuple):
+    """One rollout to evaluate: the DMP from ``start`` to ``target`` (P2 poses) with weights W,
+    its costs read against the sensed hole q̃_H, simulated with the hole at ``simulated_hole``
+    (None: where the scene has it, the real hole; ``planner.simulated_hole``)."""
+
+    start: NDArray[np.float64]
+    target: NDArray[np.float64]
+    weights: NDArray[np.float64]
+    sensed_hole: NDArray[np.float64]
+    simulated_hole: NDArray[np.float64] | None = None
+
+
 def hole_error_m(q_bottom: NDArray[np.float64], hole_xy: NDArray[np.float64]) -> float:
-    """True |P2 − H| in (x, y) of a tip pose."""
+    """|P2 − H| in (x, y) of a tip pose, H the hole frame given."""
     return float(np.hypot(*(q_bottom[:2] - hole_xy[:2])))
 
 
 def succeeded(trace: Trace, hole_xy: NDArray[np.float64], tolerance_m: float) -> bool:
     """A rollout's ``success``: not diverged, and its tip P2 ends within ``tolerance_m`` of the
-    true hole H in (x, y)."""
+    hole H it was simulated with, in (x, y)."""
     return bool(trace.ok and hole_error_m(trace.q_peg_bottom[-1], hole_xy) <= tolerance_m)
 
 
@@ -52,8 +63,17 @@ ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
     "cost_spring_energy": ("1", "α2 Σ E_RP (eq. 11)"),
     "cost_hole_distance": ("1", "α3 Σ δq̃ᵀΣ_H⁻¹δq̃ (eq. 11)"),
     "sensed_hole_x_m": ("m", "sensed hole x̃_H (eq. 16b)"),
-    "sensed_hole_y_m": ("m", "sensed hole y (exact)"),
-    "sensed_hole_theta_rad": ("rad", "sensed hole θ (exact)"),
+    "sensed_hole_y_m": ("m", "sensed hole y (exact unless sensing.y_std_m)"),
+    "sensed_hole_theta_rad": ("rad", "sensed hole θ (exact unless sensing.theta_std_rad)"),
+    "simulated_hole_x_m": (
+        "m",
+        (
+            "x of the hole in the rollout's simulator: the real hole's, or with planner."
+            "simulated_hole a sensed one's (training rollouts only)"
+        ),
+    ),
+    "simulated_hole_y_m": ("m", "y of the hole in the rollout's simulator"),
+    "simulated_hole_theta_rad": ("rad", "θ of the hole in the rollout's simulator"),
     "start_x_m": ("m", "peg tip P2 at the start (offset by train_ or deploy_start_std_m), x"),
     "start_y_m": ("m", "P2 at the start, y"),
     "start_theta_rad": ("rad", "P2 at the start, θ"),
@@ -74,8 +94,14 @@ ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
     "final_bottom_x_m": ("m", "peg tip P2 at the end, x"),
     "final_bottom_y_m": ("m", "peg tip P2 at the end, y"),
     "final_bottom_theta_rad": ("rad", "peg tip P2 at the end, θ"),
-    "final_hole_error_m": ("m", "true |P2 − H| (x, y) at the end"),
-    "success": ("1", "final_hole_error_m <= success_tolerance_m and not diverged"),
+    "final_hole_error_m": ("m", "|P2 − H| (x, y) at the end, H the simulated hole"),
+    "success": (
+        "1",
+        (
+            "final_hole_error_m <= success_tolerance_m and not diverged: inserted into the hole "
+            "of the rollout's simulator (the real one unless planner.simulated_hole)"
+        ),
+    ),
     "is_best": ("1", "lowest cost of its training iteration"),
     "status": ("", "ok or diverged"),
     "reason": ("", "why the rollout diverged"),
@@ -146,6 +172,7 @@ class RunRecorder:
     """Collects the rows of ``rollouts.parquet`` and the best paths of a run."""
 
     def __init__(self, hole: NDArray[np.float64], tolerance_m: float, scene: PegInHoleScene):
+        self.hole = hole
         self.hole_xy = hole[:2]
         self.tolerance_m = tolerance_m
         self.scene = scene
@@ -168,9 +195,10 @@ class RunRecorder:
         """Rows of one iteration's rollouts, or of deployment trials (one rollout each)."""
         first = len(self.rows)
         for r, (rollout, trace, term, cost) in enumerate(zip(batch, traces, terms, costs)):
-            start, target, weights, sensed = rollout
+            start, target, weights, sensed, simulated = rollout
+            simulated = self.hole if simulated is None else simulated
             final = trace.q_peg_bottom[-1] if len(trace) else np.full(3, np.nan)
-            error = hole_error_m(final, self.hole_xy)
+            error = hole_error_m(final, simulated)
             self.rows.append(
                 {
                     "phase": phase,
@@ -182,6 +210,7 @@ class RunRecorder:
                         for name, value in zip(COST_TERMS, term.values if term else [np.nan] * 3)
                     },
                     **_pose_columns("sensed_hole", sensed),
+                    **_pose_columns("simulated_hole", simulated),
                     **_pose_columns("start", start),
                     **_pose_columns("target", target),
                     "target_hole_error_m": float(np.hypot(*(target[:2] - self.hole_xy))),
@@ -189,7 +218,7 @@ class RunRecorder:
                     "weights": np.asarray(weights, dtype=float).copy(),
                     **_pose_columns("final_bottom", final),
                     "final_hole_error_m": error,
-                    "success": succeeded(trace, self.hole_xy, self.tolerance_m),
+                    "success": succeeded(trace, simulated, self.tolerance_m),
                     "is_best": False,
                     "status": trace.status,
                     "reason": trace.reason,
@@ -274,10 +303,12 @@ def recorded_pose(row: pd.Series, prefix: str) -> NDArray[np.float64]:
 
 
 def recorded_rollout(row: pd.Series) -> Rollout:
-    """The rollout a row of ``rollouts.parquet`` records; ``Planner.evaluate`` on it (with the
-    run's scene and planner config) replays it exactly, e.g. to look at one deployment trial."""
+    """The rollout a row of ``rollouts.parquet`` records; ``Planner.evaluate_rollout`` on it
+    (with the run's scene and planner config) replays it exactly, e.g. to look at one
+    deployment trial. Records that predate ``simulated_hole_*`` ran on the scene's hole."""
     start, target, sensed = (recorded_pose(row, p) for p in ("start", "target", "sensed_hole"))
-    return start, target, np.asarray(row["weights"], float), sensed
+    simulated = recorded_pose(row, "simulated_hole") if "simulated_hole_x_m" in row else None
+    return Rollout(start, target, np.asarray(row["weights"], float), sensed, simulated)
 
 
 @dataclass(frozen=True)

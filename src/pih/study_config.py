@@ -50,9 +50,9 @@ DEPLOY_KEYS = ("planner.deploy_policy", "planner.deploy_start_std_m")
 """How the learned policy is deployed (which weights, from how exact a start): training is the
 same for every level, so these are method keys (shared draws) that one-level runs depend on."""
 
-TRAINING_KEYS = ("planner.train_start_std_m",)
-"""How robustly the policy is trained (training from offset starts): a method choice, so these
-are method keys too (shared draws), and one-level runs depend on them."""
+TRAINING_KEYS = ("planner.train_start_std_m", "planner.simulated_hole")
+"""How the policy is trained (from offset starts; on the real or a sensed hole): a method
+choice, so these are method keys too (shared draws), and one-level runs depend on them."""
 
 VARIANT_KEY = "variant"
 """Sweep key whose levels name entries of the config's ``variants`` (one-at-a-time ablations)."""

@@ -1,0 +1,140 @@
+"""Planning on the sensed hole (``planner.simulated_hole``) and noise on the sensed y_H, θ_H:
+training rollouts run where the robot sensed the hole, deployment trials on the real one."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_planner import COARSE, short_config
+
+from pih.config import ConfigError, from_mapping, to_mapping
+from pih.planner import Planner
+from pih.planner_config import PlannerConfig, SensingConfig, replace
+from pih.run_record import Rollout, recorded_pose, recorded_rollout
+from pih.study_config import seed_key
+
+
+def planner_from(simulated_hole: object = "true_hole", **sensing: object) -> PlannerConfig:
+    """A planner config read from a mapping, as a config file's ``planner`` section is."""
+    mapping = to_mapping(PlannerConfig())
+    mapping["simulated_hole"] = simulated_hole
+    mapping["sensing"].update(sensing)
+    return from_mapping(PlannerConfig, mapping, "planner")
+
+
+def test_simulated_hole_and_sensing_noise_are_checked_before_anything_runs():
+    assert planner_from("sensed_per_iteration", y_std_m=0.001).simulated_hole == (
+        "sensed_per_iteration"
+    )
+    with pytest.raises(ConfigError, match=r"planner\.simulated_hole.*'sensed_per_run'"):
+        planner_from(True)  # YAML's unquoted true
+    with pytest.raises(ConfigError, match=r"planner\.sensing\.y_std_m"):
+        planner_from(y_std_m=-0.001)
+    with pytest.raises(ConfigError, match=r"planner\.sensing\.theta_std_rad"):
+        planner_from(theta_std_rad=float("nan"))
+    # A tilted sensed hole cannot be simulated: the scene's hole is upright.
+    with pytest.raises(ConfigError, match=r"planner\.sensing\.theta_std_rad.*cannot tilt"):
+        planner_from("sensed_per_run", theta_std_rad=0.01)
+
+
+def test_noise_on_y_and_theta_is_drawn_only_when_asked_and_keeps_the_x_draw():
+    exact = Planner.from_configs(COARSE, replace(PlannerConfig(), iterations=1))
+    noisy_config = replace(
+        PlannerConfig(), iterations=1, sensing=SensingConfig(y_std_m=0.001, theta_std_rad=0.01)
+    )
+    noisy = Planner(exact.scene, noisy_config)
+    truth = exact.scene.hole_pose
+    exact_draws = np.array([exact.sense_hole(np.random.default_rng(s)) for s in range(300)])
+    noisy_draws = np.array([noisy.sense_hole(np.random.default_rng(s)) for s in range(300)])
+    assert np.all(exact_draws[:, 1:] == truth[1:])
+    assert np.array_equal(noisy_draws[:, 0], exact_draws[:, 0])
+    assert noisy_draws[:, 1].std() == pytest.approx(0.001, rel=0.2)
+    assert noisy_draws[:, 2].std() == pytest.approx(0.01, rel=0.2)
+    assert abs(noisy_draws[:, 1].mean() - truth[1]) < 0.0003
+
+
+def test_a_simulated_hole_moves_the_scene_and_the_contact():
+    planner = Planner.from_configs(COARSE, short_config(iterations=1, population_size=2))
+    truth = planner.scene.hole_pose
+    assert planner.scene_for(None) is planner.scene
+    assert planner.scene_for(truth.copy()) is planner.scene
+    shifted = truth + [0.003, 0.0, 0.0]
+    model = planner.scene_for(shifted)
+    assert np.array_equal(model.hole_pose, shifted)
+    assert planner.scene_for(shifted.copy()) is model  # kept while the pose does not change
+    start = np.array([truth[0], COARSE.hole.top_y_m + 0.005, 0.0])
+    weights = np.zeros(3 * planner.config.dmp.n_basis)
+    rollout = Rollout(start, truth.copy(), weights, truth.copy())
+    real, _ = planner.evaluate_rollout(rollout)
+    simulated, _ = planner.evaluate_rollout(rollout._replace(simulated_hole=shifted))
+    # Straight down into the real hole; on the top surface beside a hole 3 mm to the right.
+    assert real.q_peg_bottom[-1][1] < COARSE.hole.top_y_m - 0.005
+    assert simulated.q_peg_bottom[-1][1] > COARSE.hole.top_y_m - 0.0005
+
+
+@pytest.fixture(scope="module")
+def runs_by_mode() -> dict[str, pd.DataFrame]:
+    runs = {}
+    for mode in ("true_hole", "sensed_per_run", "sensed_per_iteration"):
+        config = short_config(
+            iterations=2, population_size=3, deploy_policy="final_mean", simulated_hole=mode
+        )
+        runs[mode] = Planner.from_configs(COARSE, config).run().rollouts
+    return runs
+
+
+def test_training_runs_on_the_sensed_hole_and_deployment_on_the_real_one(runs_by_mode):
+    truth = Planner.from_configs(COARSE, PlannerConfig()).scene.hole_pose
+    for mode, rows in runs_by_mode.items():
+        train, deploy = rows[rows["phase"] == "train"], rows[rows["phase"] == "deploy"]
+        simulated = train[["simulated_hole_x_m", "simulated_hole_y_m"]].to_numpy()
+        sensed = train[["sensed_hole_x_m", "sensed_hole_y_m"]].to_numpy()
+        first = train[train["iteration"] == 1][["sensed_hole_x_m", "sensed_hole_y_m"]].iloc[0]
+        if mode == "true_hole":
+            assert np.all(simulated == truth[:2])
+        elif mode == "sensed_per_run":
+            assert np.all(simulated == first.to_numpy())
+            assert len(np.unique(sensed[:, 0])) == 2  # the camera still senses every iteration
+        else:
+            assert np.array_equal(simulated, sensed)
+        assert np.all(deploy[["simulated_hole_x_m", "simulated_hole_y_m"]] == truth[:2])
+        # success is judged against the hole each rollout was simulated with
+        error = np.hypot(
+            train["final_bottom_x_m"] - train["simulated_hole_x_m"],
+            train["final_bottom_y_m"] - train["simulated_hole_y_m"],
+        )
+        np.testing.assert_allclose(train["final_hole_error_m"], error)
+
+
+def test_the_modes_share_their_draws_and_differ_only_in_the_simulator(runs_by_mode):
+    rows = {mode: r.reset_index(drop=True) for mode, r in runs_by_mode.items()}
+    for mode in ("sensed_per_run", "sensed_per_iteration"):
+        for column in ("sensed_hole_x_m", "start_x_m"):
+            assert np.array_equal(rows[mode][column], rows["true_hole"][column])
+        train = rows[mode]["phase"] == "train"
+        first = train & (rows[mode]["iteration"] == 1)
+        # The same first-iteration rollouts (same W) end elsewhere on a hole 5 mm off.
+        assert not np.array_equal(
+            rows[mode].loc[first, "final_bottom_x_m"],
+            rows["true_hole"].loc[first, "final_bottom_x_m"],
+        )
+    assert seed_key({"planner.simulated_hole": "sensed_per_run", "planner.seed": 0}) == seed_key(
+        {"planner.simulated_hole": "true_hole", "planner.seed": 0}
+    )
+
+
+def test_a_training_rollout_on_the_sensed_hole_replays_exactly(runs_by_mode):
+    rows = runs_by_mode["sensed_per_iteration"]
+    config = short_config(
+        iterations=2,
+        population_size=3,
+        deploy_policy="final_mean",
+        simulated_hole="sensed_per_iteration",
+    )
+    planner = Planner.from_configs(COARSE, config)
+    row = rows[(rows["phase"] == "train") & (rows["iteration"] == 2)].iloc[0]
+    rollout = recorded_rollout(row)
+    assert np.array_equal(rollout.simulated_hole, recorded_pose(row, "simulated_hole"))
+    trace, _ = planner.evaluate_rollout(rollout)
+    assert np.array_equal(trace.q_peg_bottom[-1], recorded_pose(row, "final_bottom"))
