@@ -247,6 +247,7 @@ def run_tables(
             {
                 **run_tags,
                 "start_std_m": planner.deploy_start_std_m,
+                "model_error": NO_MODEL_ERROR,
                 **run_summary(
                     rollouts,
                     planner.success_tolerance_m,
@@ -258,10 +259,15 @@ def run_tables(
     return pd.concat(bests, ignore_index=True), pd.DataFrame(summaries)
 
 
+NO_MODEL_ERROR = "none"
+"""``model_error`` of a deployment on the scene the policy was trained on."""
+
+
 def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -> pd.DataFrame:
-    """One row per redeployment of a run (``pih redeploy``, the ``redeploy`` rule): its method,
-    run and sweep levels as :func:`run_tables` tags them, the start std and the fraction of the
-    redeployed trials that inserted."""
+    """One row per redeployment of a run (``pih redeploy``, the ``redeploy`` and
+    ``redeploy_model_error`` rules): its method, run and sweep levels as :func:`run_tables` tags
+    them, the start std, the model error's name (``robustness.model_error``, or "none") and
+    the fraction of the redeployed trials that inserted."""
     rows = []
     for path in map(Path, files):
         record = read_provenance(path)
@@ -274,6 +280,7 @@ def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -
                 "run": path.parent.name,
                 **{key: str(point[key]) for key in split_keys(sweep_keys)},
                 "start_std_m": planner["deploy_start_std_m"],
+                "model_error": (record.get("model_error") or {}).get("name", NO_MODEL_ERROR),
                 "deploy_success_rate": float(deploy["success"].mean()),
             }
         )
@@ -283,6 +290,10 @@ def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -
 ROBUSTNESS_COLUMNS: dict[str, tuple[str, str]] = {
     "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
     "start_std_m": ("m", "std of the deployment trials' start offset in x and y"),
+    "model_error": (
+        "",
+        "the real scene's difference from training's (robustness.model_error), or none",
+    ),
     "runs": ("1", "independent planning runs"),
     "deploy_success_rate": ("1", "mean over runs of the fraction of trials that inserted"),
     "deploy_ci_low": ("1", "95 % Wilson interval over runs (each run one observation), low"),
@@ -304,19 +315,22 @@ def robustness_columns(sweep_keys: list[str]) -> dict[str, tuple[str, str]]:
 
 
 def robustness_table(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
-    """Deployment success per method, level of every compared dimension and start std, over the
-    runs' own deployments (at their ``deploy_start_std_m``) and their redeployments
-    (:func:`redeployment_summaries`); a run redeployed at its own std counts once."""
+    """Deployment success per method, level of every compared dimension, start std and model
+    error, over the runs' own deployments (at their ``deploy_start_std_m``) and their
+    redeployments (:func:`redeployment_summaries`); a run redeployed at its own std counts
+    once."""
     compared = compared_keys(sweep_keys)
-    unique = deployments.drop_duplicates(["run", "start_std_m"])
+    conditions = ["start_std_m", "model_error"]
+    unique = _with_model_error(deployments).drop_duplicates(["run", *conditions])
     rows = []
-    for (method, *levels, std), runs in unique.groupby(["method", *compared, "start_std_m"]):
+    for (method, *levels, std, error), runs in unique.groupby(["method", *compared, *conditions]):
         rate, low, high = rate_over_runs(runs["deploy_success_rate"])
         rows.append(
             {
                 "method": method,
                 **dict(zip(compared, levels, strict=True)),
                 "start_std_m": std,
+                "model_error": error,
                 "runs": len(runs),
                 "deploy_success_rate": rate,
                 "deploy_ci_low": low,
@@ -324,15 +338,34 @@ def robustness_table(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.Dat
                 "runs_all_inserted": int((runs["deploy_success_rate"] == 1).sum()),
             }
         )
-    return pd.DataFrame(rows, columns=list(robustness_columns(sweep_keys)))
+    table = pd.DataFrame(rows, columns=list(robustness_columns(sweep_keys)))
+    # The scene the policy was trained on first, then each model error.
+    order = (table["model_error"] != NO_MODEL_ERROR).astype(int)
+    return table.iloc[order.argsort(kind="stable")].reset_index(drop=True)
 
 
 def robustness_pairs(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
-    """:func:`paired_table` per start std (dimension ``start_std_m``)."""
-    unique = deployments.drop_duplicates(["run", "start_std_m"])
-    unique = unique.assign(start_std_m=unique["start_std_m"].map(str))
-    paired = paired_table(unique, [*sweep_keys, "start_std_m"])
-    return paired[paired["dimension"] == "start_std_m"].reset_index(drop=True)
+    """:func:`paired_table` per start std (dimension ``start_std_m``) on the training scene,
+    and per model error (dimension ``model_error``)."""
+    frame = _with_model_error(deployments)
+    exact = frame[frame["model_error"] == NO_MODEL_ERROR].drop_duplicates(["run", "start_std_m"])
+    exact = exact.assign(start_std_m=exact["start_std_m"].map(str))
+    paired = paired_table(exact, [*sweep_keys, "start_std_m"])
+    parts = [paired[paired["dimension"] == "start_std_m"]]
+    errors = frame[frame["model_error"] != NO_MODEL_ERROR]
+    if not errors.empty:
+        paired = paired_table(
+            errors.drop_duplicates(["run", "model_error"]), [*sweep_keys, "model_error"]
+        )
+        parts.append(paired[paired["dimension"] == "model_error"])
+    return pd.concat(parts, ignore_index=True)
+
+
+def _with_model_error(deployments: pd.DataFrame) -> pd.DataFrame:
+    """Deployments with a ``model_error`` column (records that predate it: none)."""
+    if "model_error" not in deployments:
+        return deployments.assign(model_error=NO_MODEL_ERROR)
+    return deployments.assign(model_error=deployments["model_error"].fillna(NO_MODEL_ERROR))
 
 
 def split_keys(sweep_keys: list[str]) -> list[str]:

@@ -314,34 +314,52 @@ class Planner:
             (start, self.target(outer, sensed), sensed) for start, sensed in self.deployment_draws()
         ]
 
-    def redeployment(self, recorded: pd.DataFrame) -> list[Rollout]:
-        """The deployment a run would have made with this planner's ``deploy_start_std_m``:
-        the recorded trials' policy, targets and sensed holes (rows of one deployment phase of
-        its ``rollouts.parquet``, by trial), from the starts this deployment stream draws. The
-        holes are drawn before the starts, so the stream must give the recorded holes back: a
-        check that this planner has the run's seeds and trial count."""
+    def redeployment(
+        self, recorded: pd.DataFrame, recorded_hole: NDArray[np.float64] | None = None
+    ) -> list[Rollout]:
+        """The deployment a run would have made with this planner's ``deploy_start_std_m`` and
+        real scene: the recorded trials' policy, targets and sensed holes (rows of one
+        deployment phase of its ``rollouts.parquet``, by trial), from the starts this deployment
+        stream draws. The holes are drawn before the starts, so the stream must give the
+        recorded holes back: a check that this planner has the run's seeds and trial count.
+
+        When this scene's hole sits elsewhere than the run's (``recorded_hole``: model error),
+        the camera sees it there: every sensed hole moves with it, and so does one-level's
+        target (the sensed hole); bilevel keeps the goal its outer level learned."""
         rows = recorded.sort_values("rollout")
         draws = self.deployment_draws()
         if len(rows) != len(draws):
             raise ValueError(f"{len(rows)} recorded trials, deploy_trials is {len(draws)}")
+        shift = np.zeros(3)
+        if recorded_hole is not None:
+            shift = self.scene.hole_pose - np.asarray(recorded_hole, float)
         trials = []
         for (_, row), (start, sensed) in zip(rows.iterrows(), draws):
-            if not np.array_equal(sensed, recorded_pose(row, "sensed_hole")):
+            recorded_sensed = recorded_pose(row, "sensed_hole")
+            if not np.allclose(sensed - shift, recorded_sensed, rtol=0.0, atol=1e-12):
                 raise ValueError(
                     f"trial {row['rollout']}: the deployment stream senses the hole at {sensed}, "
                     f"not where the record does (not the run's seeds)"
                 )
+            target = recorded_pose(row, "target")
+            if self.config.method == "one_level":
+                target = target + shift
             weights = np.asarray(row["weights"], float)
-            trials.append(Rollout(start, recorded_pose(row, "target"), weights, sensed))
+            trials.append(Rollout(start, target, weights, sensed))
         return trials
 
     def redeploy(
-        self, rollouts: pd.DataFrame, cost_divisors: list[float], workers: int = 1
+        self,
+        rollouts: pd.DataFrame,
+        cost_divisors: list[float],
+        workers: int = 1,
+        recorded_hole: NDArray[np.float64] | None = None,
     ) -> pd.DataFrame:
         """The deployment phases of a run's ``rollouts.parquet`` (``deploy``, and
         ``deploy_final_mean`` if recorded) deployed again with this planner's
-        ``deploy_start_std_m`` (:meth:`redeployment`): rows in the same columns, J_inn balanced
-        with the run's ``cost_divisors``."""
+        ``deploy_start_std_m`` on its scene (:meth:`redeployment`; ``recorded_hole``: the
+        run's hole pose when this scene's differs): rows in the same columns, J_inn balanced
+        with the run's ``cost_divisors``, success judged on this scene's hole."""
         recorder = RunRecorder(self.scene.hole_pose, self.config.success_tolerance_m, self.scene)
         balance = CostBalance(self.config.costs, cost_divisors)
         done: dict[bytes, list[tuple[Trace, CostTerms | None]]] = {}
@@ -350,9 +368,9 @@ class Planner:
                 recorded = rollouts[rollouts["phase"] == phase]
                 if recorded.empty:
                     continue
-                trials = self.redeployment(recorded)
+                trials = self.redeployment(recorded, recorded_hole)
                 # Both phases deploy one policy in the same situations when no mean inserted.
-                policy = np.asarray(trials[0][2]).tobytes()
+                policy = np.asarray(trials[0].weights).tobytes()
                 if policy not in done:
                     done[policy] = pool.evaluate(trials)
                 iterations = int(recorded["iteration"].iloc[0])

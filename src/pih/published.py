@@ -46,7 +46,7 @@ of MB a run at 0.5 ms), the recordings or the report, which the workflow remakes
 HEADLINE_TABLES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
     (
         "planning/summary/robustness.parquet",
-        ("method", "start_std_m"),
+        ("method", "start_std_m", "model_error"),
         ("runs", "deploy_success_rate", "deploy_ci_low", "deploy_ci_high", "runs_all_inserted"),
     ),
     (

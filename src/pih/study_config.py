@@ -271,18 +271,47 @@ class ValidationSection:
 
 @dataclass(frozen=True)
 class RobustnessSection:
-    """Every planning run's learned policy deployed again from inexact starts."""
+    """Every planning run's learned policy deployed again from inexact starts, and on a real
+    scene that differs from the one it was trained on (model error)."""
 
     start_std_m: tuple[float, ...] = described(
         (0.001,),
         "one redeployment of every run per std: the deployment trials from starts offset in x "
         "and y by N(0, std²) (pih redeploy, docs/planner.md); empty: none",
     )
+    model_error: dict[str, dict[str, Any]] = described(
+        description="one redeployment of every run per entry: the deployment trials on a real "
+        "scene with these dotted scene settings (e.g. material.friction, hole.x_m: the hole "
+        "moved after training; the camera sees it there), from starts offset by the smallest "
+        "start_std_m > 0 (or the training start); docs/planner.md. Empty: none",
+        default_factory=dict,
+    )
 
     def validate(self, prefix: str = "") -> None:
         stds = [canonical_json(v) for v in self.start_std_m]
         if len(set(stds)) != len(stds):
             raise ConfigError(f"{prefix}start_std_m: {list(self.start_std_m)} repeats a level")
+        for name, settings in self.model_error.items():
+            if not re.fullmatch(VARIANT_NAME, str(name)):
+                raise ConfigError(
+                    f"{prefix}model_error: {name!r}; expected a name of lower-case letters, "
+                    "digits and underscores (it is part of a file name)"
+                )
+            if not isinstance(settings, Mapping) or not settings:
+                raise ConfigError(
+                    f"{prefix}model_error.{name}: {settings!r}; expected dotted scene settings, "
+                    "e.g. {material.friction: 0.5}"
+                )
+
+    @property
+    def model_error_start_std_m(self) -> float:
+        """The start std of the model-error redeployments: the smallest ``start_std_m`` > 0."""
+        return min((s for s in self.start_std_m if s > 0), default=0.0)
+
+
+def robustness_section(config: Mapping[str, Any]) -> RobustnessSection:
+    """The config's ``robustness`` section, validated."""
+    return from_mapping(RobustnessSection, config["robustness"], "robustness")
 
 
 def scene_with(scene: Mapping[str, Any], overrides: Mapping[str, Any], key: str) -> SceneConfig:
@@ -515,7 +544,7 @@ def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> N
         from_mapping(SceneConfig, data["scene"], f"variants.{name}: scene")
         from_mapping(PlannerConfig, data["planner"], f"variants.{name}: planner")
         check_limits(data, f"variants.{name}: ")
-    robustness = from_mapping(RobustnessSection, config["robustness"], "robustness")
+    robustness = robustness_section(config)
     for point in points or [{}]:
         try:
             data = override(config, point)
@@ -529,6 +558,8 @@ def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> N
                 replace(planner, deploy_start_std_m=std)
             except ConfigError as error:
                 raise ConfigError(f"robustness.start_std_m: {error}") from None
+        for name, settings in robustness.model_error.items():
+            scene_with(data["scene"], settings, f"robustness.model_error.{name}")
 
 
 def _at_point(config: Mapping[str, Any], point: Mapping[str, Any], error: ConfigError) -> str:

@@ -11,7 +11,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from pih.aggregate import compared_rows
+from pih.aggregate import NO_MODEL_ERROR, compared_rows
 from pih.outputs import markdown_table
 
 # Paper Table 2: relative error (%) of the hydroelastic model against Whitney, per offset ε0 (m).
@@ -102,6 +102,57 @@ def headline_std(robustness: pd.DataFrame) -> float | None:
     return float(stds[0]) if stds else None
 
 
+def on_training_scene(robustness: pd.DataFrame) -> pd.DataFrame:
+    """The deployments on the scene the policies were trained on (no model error)."""
+    if "model_error" not in robustness:
+        return robustness
+    return robustness[robustness["model_error"] == NO_MODEL_ERROR]
+
+
+def model_error_rows(robustness: pd.DataFrame, paired: pd.DataFrame) -> pd.DataFrame:
+    """Per model error (``robustness.model_error``) and method: deployment success on the
+    changed real scene with its interval, beside the same std on the training scene, and
+    against one-level at the same points (paired)."""
+    if "model_error" not in robustness:
+        return pd.DataFrame()
+    errors = robustness[robustness["model_error"] != NO_MODEL_ERROR]
+    exact = on_training_scene(robustness)
+    rows = []
+    for _, row in errors.iterrows():
+        same = exact[
+            (exact["method"] == row["method"]) & (exact["start_std_m"] == row["start_std_m"])
+        ]
+        pair = paired[
+            (paired["dimension"] == "model_error")
+            & (paired["level"] == row["model_error"])
+            & (paired["method"] == row["method"])
+            & (paired["versus"] == "one_level")
+        ]
+        rows.append(
+            {
+                "model error": row["model_error"],
+                "method": row["method"],
+                "runs": row["runs"],
+                "deployed": _interval(
+                    row["deploy_success_rate"], row["deploy_ci_low"], row["deploy_ci_high"]
+                ),
+                "without it": (
+                    _interval(
+                        *same.iloc[0][["deploy_success_rate", "deploy_ci_low", "deploy_ci_high"]]
+                    )
+                    if len(same)
+                    else "—"
+                ),
+                "vs one-level: better / worse / tied": (
+                    f"{pair.iloc[0]['better']} / {pair.iloc[0]['worse']} / {pair.iloc[0]['tied']}"
+                    if len(pair)
+                    else "—"
+                ),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
 def planning_rows(success: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
     """The headline per method (and per compared level, e.g. an ablation's variants, whose
     levels are different designs that do not pool): deployment success from starts offset by
@@ -109,6 +160,7 @@ def planning_rows(success: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFra
     nominal trials only repeated a training rollout, and the final mean's deployment."""
     compared = compared_rows(success)
     overall = compared if len(compared) else success[success["dimension"] == "all"]
+    robustness = on_training_scene(robustness)
     std = headline_std(robustness)
     rows = []
     for _, row in overall.iterrows():
@@ -149,7 +201,7 @@ def planning_rows(success: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFra
 
 def perturbed_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
     """The paired comparisons on the headline's offset starts (same draws at each point)."""
-    std = headline_std(robustness)
+    std = headline_std(on_training_scene(robustness))
     if std is None:
         return paired[:0]
     rows = paired[(paired["dimension"] == "start_std_m") & (paired["level"] == str(std))]
@@ -192,7 +244,19 @@ def summary_markdown(
 ) -> str:
     """The summary page: planning headline first (the paper's contribution), then validation."""
     links_md = "\n".join(f"- [{name}]({target})" for name, target in links.items())
-    std = headline_std(robustness)
+    std = headline_std(on_training_scene(robustness))
+    errors = model_error_rows(robustness, paired)
+    model_error = (
+        ""
+        if errors.empty
+        else f"""
+Deployed on a real scene that differs from the one the policy was trained on
+(`robustness.model_error`), from the same offset starts: success with its interval over runs,
+the same without the model error, and the pairs against one-level at the same points.
+
+{markdown_table(errors, "{:.3g}")}
+"""
+    )
     sigma = f"{1e3 * std:g} mm" if std else "σ"
     return f"""# pih study summary
 
@@ -219,7 +283,7 @@ difference, and a two-sided exact sign test over the untied pairs.
 The same from the training start (nominal deployment):
 
 {markdown_table(paired_rows(paired), "{:.3g}")}
-
+{model_error}
 ## Hydroelastic contact vs Whitney's theory (paper Tables 2–3)
 
 Hydroelastic model, the paper's depth alignment (chamfer start); ε0 is the lateral offset.

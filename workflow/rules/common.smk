@@ -8,6 +8,7 @@ from pih.study_config import (
     figure_point,
     read_config_files,
     resolved_sections,
+    robustness_section,
     stop_on_config_error,
     study_points,
     validation_scenes,
@@ -64,10 +65,16 @@ def library_of(script):
 
 # Each planning run is redeployed once per std (file names carry the std as Python prints it).
 ROBUSTNESS_STDS = [str(float(std)) for std in config["robustness"]["start_std_m"]]
+# ...and once per model error, from starts offset by the smallest std > 0.
+MODEL_ERROR_STD = robustness_section(config).model_error_start_std_m
 REDEPLOYMENTS = expand(
     "results/planning/{point}/redeploy_start_std_m~{std}.parquet",
     point=PLANNING.instance_patterns,
     std=ROBUSTNESS_STDS,
+) + expand(
+    "results/planning/{point}/redeploy_model_error~{error}.parquet",
+    point=PLANNING.instance_patterns,
+    error=list(config["robustness"].get("model_error") or {}),
 )
 
 # What results/summary.md says it summarises: the default config first, then the user's.
@@ -113,6 +120,7 @@ wildcard_constraints:
     offset=r"[0-9.e+-]+",
     std=r"[0-9.e+-]+",
     variant=r"[a-z0-9_]+",
+    error=r"[a-z0-9_]+",
 
 
 def record_companions(outputs, carrier):

@@ -37,6 +37,31 @@ rule redeploy:
         runtime=10,
     params:
         start_std_m=lambda wildcards: float(wildcards.std),
+        model_error={},
+        library=library_of("redeploy.py"),
+    script:
+        "../scripts/redeploy.py"
+
+
+rule redeploy_model_error:
+    input:
+        rollouts=f"results/planning/{PLANNING.wildcard_pattern}/rollouts.parquet",
+    output:
+        rollouts=f"results/planning/{PLANNING.wildcard_pattern}/redeploy_model_error~{{error}}.parquet",
+    log:
+        f"logs/planning/{PLANNING.wildcard_pattern}_redeploy_model_error~{{error}}.log",
+    conda:
+        "../envs/pih.yaml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    params:
+        start_std_m=MODEL_ERROR_STD,
+        model_error=lambda wildcards: {
+            "name": wildcards.error,
+            "settings": config["robustness"]["model_error"][wildcards.error],
+        },
         library=library_of("redeploy.py"),
     script:
         "../scripts/redeploy.py"

@@ -1,4 +1,5 @@
-"""One planning run's learned policy deployed again from starts offset by N(0, σ²) in x and y."""
+"""One planning run's learned policy deployed again: from starts offset by N(0, σ²) in x and y,
+and, for a model error, on a real scene with other settings."""
 
 from pih.config import to_mapping
 from pih.outputs import write_table
@@ -8,19 +9,24 @@ from pih.workflow import job_provenance, logged
 with logged(snakemake.log[0]):
     run = RecordedRun.read(snakemake.input.rollouts)
     start_std_m = snakemake.params.start_std_m
-    table = run.redeploy(start_std_m)
+    model_error = snakemake.params.model_error
+    settings = model_error.get("settings", {})
+    table = run.redeploy(start_std_m, model_error=settings)
     provenance = job_provenance(
         snakemake,
         "redeploy",
         point=run.record["sweep_point"],
         seeds=run.record["seeds"],
         config={
-            "scene": to_mapping(run.scene),
+            "scene": to_mapping(run.deployment_scene(settings)),
             "planner": to_mapping(run.redeployment_config(start_std_m)),
         },
         simulator=run.record["simulator"],
-        extra={"seed_key": run.record["seed_key"]},
+        extra={"seed_key": run.record["seed_key"], "model_error": model_error},
     )
     write_table(table, snakemake.output.rollouts, provenance, ROLLOUT_COLUMNS)
     deployed = table[table["phase"] == "deploy"]["success"].mean()
-    print(f"deployment success {deployed:.0%} from starts offset by N(0, ({start_std_m:g} m)²)")
+    error = f" on {model_error['name']} ({settings})" if settings else ""
+    print(
+        f"deployment success {deployed:.0%} from starts offset by N(0, ({start_std_m:g} m)²){error}"
+    )
