@@ -195,3 +195,49 @@ def test_model_errors_are_checked_before_any_job():
         config["robustness"]["model_error"] = errors
         with pytest.raises(ConfigError, match=match):
             check_study(config, study_points(config)[:1])
+
+
+def test_model_errors_get_their_own_rows_and_pairs_and_leave_the_headline_alone():
+    from pih.aggregate import robustness_pairs, robustness_table
+    from pih.summary import model_error_rows, on_training_scene
+
+    keys = ["planner.start_x_m", "planner.method"]
+    rows = []
+    for start, ours, theirs in (("-0.04", 1.0, 0.2), ("-0.035", 0.9, 0.1), ("-0.03", 0.8, 0.3)):
+        for method, rate in (("bilevel/deepest_explored", ours), ("one_level", theirs)):
+            run = f"{start}_{method}"
+            common = {"method": method, "run": run, "planner.start_x_m": start}
+            rows += [
+                {**common, "start_std_m": 0.0, "deploy_success_rate": rate},  # the run's own
+                {
+                    **common,
+                    "start_std_m": 0.001,
+                    "model_error": "none",
+                    "deploy_success_rate": rate,
+                },
+                {
+                    **common,
+                    "start_std_m": 0.001,
+                    "model_error": "friction_0_5",
+                    "deploy_success_rate": rate / 2 if method == "one_level" else 0.0,
+                },
+            ]
+    deployments = pd.DataFrame(rows)
+    table = robustness_table(deployments, keys)
+    assert list(table["model_error"]) == ["none"] * 4 + ["friction_0_5"] * 2
+    exact = on_training_scene(table)
+    assert len(exact) == 4 and set(exact["start_std_m"]) == {0.0, 0.001}
+    pairs = robustness_pairs(deployments, keys)
+    under_error = pairs[pairs["dimension"] == "model_error"].iloc[0]
+    # Under friction 0.5 ours inserts nowhere, one-level at every start: 0 better, 3 worse.
+    assert (under_error["level"], under_error["better"], under_error["worse"]) == (
+        "friction_0_5",
+        0,
+        3,
+    )
+    assert set(pairs[pairs["dimension"] == "start_std_m"]["level"]) == {"0.0", "0.001"}
+    errors = model_error_rows(table, pairs)
+    ours = errors[errors["method"] == "bilevel/deepest_explored"].iloc[0]
+    assert ours["model error"] == "friction_0_5" and ours["deployed"].startswith("0.00")
+    assert ours["without it"].startswith("0.90")
+    assert ours["vs one-level: better / worse / tied"] == "0 / 3 / 0"

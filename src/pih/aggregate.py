@@ -352,12 +352,11 @@ def robustness_pairs(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.Dat
     exact = exact.assign(start_std_m=exact["start_std_m"].map(str))
     paired = paired_table(exact, [*sweep_keys, "start_std_m"])
     parts = [paired[paired["dimension"] == "start_std_m"]]
-    errors = frame[frame["model_error"] != NO_MODEL_ERROR]
-    if not errors.empty:
-        paired = paired_table(
-            errors.drop_duplicates(["run", "model_error"]), [*sweep_keys, "model_error"]
-        )
-        parts.append(paired[paired["dimension"] == "model_error"])
+    errors = frame[frame["model_error"] != NO_MODEL_ERROR].drop_duplicates(["run", "model_error"])
+    for error, part in errors.groupby("model_error"):
+        paired = paired_table(part, sweep_keys)
+        overall = paired[paired["dimension"] == "all"]
+        parts.append(overall.assign(dimension="model_error", level=error))
     return pd.concat(parts, ignore_index=True)
 
 

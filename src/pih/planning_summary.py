@@ -46,7 +46,7 @@ def write_planning_summary(
     for name, (frame, columns) in frames.items():
         write_table(frame, directory / f"{name}.parquet", record, columns)
     paired = tables.paired
-    robustness_pairs = paired[paired["dimension"] == "start_std_m"]
+    robustness_pairs = paired[paired["dimension"].isin(["start_std_m", "model_error"])]
     against_reference = tables.variant_pairs
     markdown = {
         "success": markdown_table(tables.success),
