@@ -241,3 +241,27 @@ def test_model_errors_get_their_own_rows_and_pairs_and_leave_the_headline_alone(
     assert ours["model error"] == "friction_0_5" and ours["deployed"].startswith("0.00")
     assert ours["without it"].startswith("0.90")
     assert ours["vs one-level: better / worse / tied"] == "0 / 3 / 0"
+
+
+def test_observation_noise_on_the_tip_reaches_the_outer_level_only_when_asked(runs_by_mode):
+    config = short_config(iterations=2, population_size=3, deploy_policy="final_mean")
+    exact = Planner.from_configs(COARSE, config)
+    poses = np.array([[0.001, -0.009, 0.0], [0.002, -0.008, 0.01]])
+    rng = np.random.default_rng(0)
+    assert np.array_equal(exact.observed_tips(poses, rng), poses)
+    assert rng.bit_generator.state == np.random.default_rng(0).bit_generator.state  # no draw
+    noisy = Planner(
+        exact.scene, replace(config, sensing=SensingConfig(tip_std_m=0.0005)), seed_key=""
+    )
+    observed = noisy.observed_tips(np.zeros((2000, 3)), np.random.default_rng(1))
+    assert observed[:, :2].std() == pytest.approx(0.0005, rel=0.1)
+    assert np.all(observed[:, 2] == 0.0)  # θ is not blurred
+    # A run with tip noise explores the same rollouts in iteration 1 but aims elsewhere after.
+    rows = noisy.run().rollouts
+    reference = runs_by_mode["true_hole"]
+    first = (rows["phase"] == "train") & (rows["iteration"] == 1)
+    assert np.array_equal(
+        rows.loc[first, "final_bottom_x_m"], reference.loc[first, "final_bottom_x_m"]
+    )
+    second = (rows["phase"] == "train") & (rows["iteration"] == 2)
+    assert not np.array_equal(rows.loc[second, "target_x_m"], reference.loc[second, "target_x_m"])

@@ -43,21 +43,29 @@ class OuterLevel:
         self.explored: NDArray[np.float64] | None = None
         self.deepest: NDArray[np.float64] | None = None
 
-    def observe(self, traces: list[Trace], samples: slice) -> None:
-        """Q_P ← the P2 poses of this iteration's non-diverged rollouts; remember the deepest
-        clean, near-upright one of the run."""
-        ok = [t for t in traces if t.ok]
+    def observe(
+        self,
+        traces: list[Trace],
+        samples: slice,
+        tips: list[NDArray[np.float64]] | None = None,
+    ) -> None:
+        """Q_P ← the P2 poses of this iteration's non-diverged rollouts at ``samples`` (as the
+        planner observes them: ``tips``, one array per trace; default the simulator's); remember
+        the deepest clean, near-upright one of the run."""
+        if tips is None:
+            tips = [t.q_peg_bottom[samples] for t in traces]
+        ok = [(t, tip) for t, tip in zip(traces, tips, strict=True) if t.ok]
         if not ok:
             return
-        self.explored = np.vstack([t.q_peg_bottom[samples] for t in ok])
+        self.explored = np.vstack([tip for _, tip in ok])
         upright = self.config.outer.max_tilt_rad
         candidates = np.vstack(
             [
-                t.q_peg_bottom[samples][
+                tip[
                     (t.penetration_m[samples] <= CLEAN_OVERLAP_M)
-                    & (np.abs(t.q_peg_bottom[samples][:, 2] - self.hole_theta_rad) <= upright)
+                    & (np.abs(tip[:, 2] - self.hole_theta_rad) <= upright)
                 ]
-                for t in ok
+                for t, tip in ok
             ]
         )
         if candidates.size:

@@ -62,13 +62,14 @@ from pih.trace import RobotTrajectory, Trace
 def run_seeds(config: PlannerConfig, seed_key: str = "") -> dict[str, int]:
     """The run's independent streams, from ``planner.seed``, ``optimizer.seed`` and the run's
     sweep levels other than the method's (``seed_key``): sensed holes (``noise``), exploration
-    noise, deployment trials, and training starts (``start``, drawn only when
-    ``train_start_std_m`` > 0). Runs that differ only in method share them (common random
+    noise, deployment trials, training starts (``start``, drawn only when
+    ``train_start_std_m`` > 0) and observed tip poses (``observation``, drawn only when
+    ``sensing.tip_std_m`` > 0). Runs that differ only in method share them (common random
     numbers); any other difference gives independent streams."""
     words = np.frombuffer(hashlib.sha256(seed_key.encode()).digest(), dtype=np.uint32)
     root = np.random.SeedSequence([config.seed, config.optimizer.seed, *words.tolist()])
     # Spawned children depend only on their index, so adding a stream keeps the others.
-    names = ("noise", "exploration", "deployment", "start")
+    names = ("noise", "exploration", "deployment", "start", "observation")
     return {name: int(c.generate_state(1)[0]) for name, c in zip(names, root.spawn(len(names)))}
 
 
@@ -172,14 +173,28 @@ class Planner:
         )
         return trace, terms
 
-    def inserted(self, trace: Trace, sensed_hole: NDArray[np.float64]) -> bool:
+    def inserted(
+        self,
+        trace: Trace,
+        sensed_hole: NDArray[np.float64],
+        observed_tip: NDArray[np.float64] | None = None,
+    ) -> bool:
         """Whether a rollout ended with the peg in the hole, as the planner can observe it: the
-        tip within ``success_tolerance_m`` of the sensed depth y_H (exact, eq. 16b). Only a peg
-        inside the hole gets there; the top surface is a hole depth above."""
-        return bool(
-            trace.ok
-            and trace.q_peg_bottom[-1][1] <= sensed_hole[1] + self.config.success_tolerance_m
-        )
+        (observed) tip within ``success_tolerance_m`` of the sensed depth y_H (exact, eq. 16b).
+        Only a peg inside the hole gets there; the top surface is a hole depth above."""
+        tip = trace.q_peg_bottom[-1] if observed_tip is None else observed_tip
+        return bool(trace.ok and tip[1] <= sensed_hole[1] + self.config.success_tolerance_m)
+
+    def observed_tips(
+        self, poses: NDArray[np.float64], rng: np.random.Generator
+    ) -> NDArray[np.float64]:
+        """P2 poses as the planner observes them: with N(0, tip_std_m²) added to x and y of
+        each when ``sensing.tip_std_m`` > 0 (drawn from ``rng``; no draw otherwise)."""
+        tips = np.array(poses, dtype=float, copy=True)
+        std = self.config.sensing.tip_std_m
+        if std > 0:
+            tips[..., :2] += rng.normal(0.0, std, tips[..., :2].shape)
+        return tips
 
     def target(self, outer: OuterLevel, sensed: NDArray[np.float64]) -> NDArray[np.float64]:
         """One-level aims at the sensed hole; bilevel where its outer level says."""
@@ -212,6 +227,7 @@ class Planner:
         evaluate_mean = cfg.deploy_policy == "last_inserted_mean"
         policy, deployed_iteration = None, None
         start_rng = np.random.default_rng(self.seeds["start"])
+        observation = np.random.default_rng(self.seeds["observation"])
         sensed = first_sensed = self.sense_hole(noise)
         for iteration in range(1, cfg.iterations + 1):
             if iteration > 1 and cfg.sensing.redraw == "per_iteration":
@@ -236,14 +252,17 @@ class Planner:
             traces, terms = zip(*results[: len(samples)])
             costs = balance.totals(list(terms))
             optimizer.tell(samples, costs)
-            outer.observe(list(traces), self.cost_samples)
+            k = self.cost_samples
+            tips = [self.observed_tips(t.q_peg_bottom[k], observation) for t in traces]
+            outer.observe(list(traces), self.cost_samples, tips)
             recorder.add("train", iteration, batch, traces, terms, costs, sigma)
             if evaluate_mean:
                 trace, term = results[-1]
                 recorder.add(
                     "mean", iteration, batch[-1:], [trace], [term], balance.totals([term]), 0.0
                 )
-                if self.inserted(trace, sensed):
+                tip = self.observed_tips(trace.q_peg_bottom[-1], observation)
+                if self.inserted(trace, sensed, tip):
                     policy, deployed_iteration = mean, iteration
             if progress:
                 progress(recorder.report(iteration, cfg.iterations, time.perf_counter() - started))

@@ -94,6 +94,14 @@ class SensingConfig:
     theta_std_rad: float = described(
         0.0, "standard deviation of the sensed hole's tilt θ_H; 0: exact, the paper (eq. 16b)"
     )
+    # What the outer level explores and what judges a mean's insertion (last_inserted_mean) are
+    # observations of the peg tip; the costs read the simulator's.
+    tip_std_m: float = described(
+        0.0,
+        "standard deviation of the observed peg-tip pose P2 in x and y, each 10 ms sample "
+        "independently: the outer level's explored poses and the depth that judges a mean's "
+        "insertion; 0: exact (not in the paper)",
+    )
     # x: the vision noise σ_x; y and θ are sensed exactly (eq. 16b), so their belief is tight:
     # 1 mm and 0.02 rad (with a loose θ belief the outer level picks tilted explored poses, and a
     # tilted goal jams the peg in the hole). A tight y makes J_out prefer explored poses at the
@@ -116,7 +124,7 @@ class SensingConfig:
             "a finite std >= 0 m",
             self.std_m,
         )
-        for key, unit in (("y_std_m", "m"), ("theta_std_rad", "rad")):
+        for key, unit in (("y_std_m", "m"), ("theta_std_rad", "rad"), ("tip_std_m", "m")):
             std = getattr(self, key)
             require(math.isfinite(std) and std >= 0, prefix + key, f"a finite std >= 0 {unit}", std)
         require(
