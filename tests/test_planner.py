@@ -250,8 +250,8 @@ def test_seeds_differ_between_sweep_points_and_are_shared_by_the_methods():
     )
     assert start_a == one_level == other_rule == other_policy != start_b
     seeds_a, seeds_b = run_seeds(config, start_a), run_seeds(config, start_b)
-    assert set(seeds_a) == {"noise", "exploration", "deployment", "start"}
-    assert len(set(seeds_a.values())) == 4
+    assert set(seeds_a) == {"noise", "exploration", "deployment", "start", "observation"}
+    assert len(set(seeds_a.values())) == 5
     assert not set(seeds_a.values()) & set(seeds_b.values())
     assert run_seeds(replace(config, seed=1), start_a) != seeds_a
 
@@ -289,7 +289,7 @@ def test_last_inserted_mean_deploys_the_latest_mean_that_inserted(
     config = short_config(iterations=2, population_size=3, deploy_policy="last_inserted_mean")
     planner = Planner.from_configs(COARSE, config)
     calls = iter([1, 2])
-    monkeypatch.setattr(planner, "inserted", lambda trace, sensed: next(calls) in inserted_at)
+    monkeypatch.setattr(planner, "inserted", lambda trace, sensed, tip: next(calls) in inserted_at)
     record = planner.run()
     rows = record.rollouts
     train = rows[rows["phase"] == "train"].reset_index(drop=True)

@@ -34,6 +34,7 @@ import multiprocessing
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
 from typing import Self
 
 import numpy as np
@@ -43,7 +44,7 @@ from numpy.typing import NDArray
 from pih.config import require
 from pih.costs import CostBalance, CostTerms, inner_cost
 from pih.dmp import Dmp
-from pih.optimizers import make_optimizer
+from pih.optimizers import Optimizer, make_optimizer
 from pih.outer import OuterLevel
 from pih.planner_config import PlannerConfig
 from pih.run_record import (
@@ -71,6 +72,71 @@ def run_seeds(config: PlannerConfig, seed_key: str = "") -> dict[str, int]:
     # Spawned children depend only on their index, so adding a stream keeps the others.
     names = ("noise", "exploration", "deployment", "start", "observation")
     return {name: int(c.generate_state(1)[0]) for name, c in zip(names, root.spawn(len(names)))}
+
+
+@dataclass(frozen=True)
+class Streams:
+    """The generators Algorithm 1 draws from during training (:func:`run_seeds`)."""
+
+    noise: np.random.Generator
+    start: np.random.Generator
+    observation: np.random.Generator
+
+    @classmethod
+    def of(cls, seeds: dict[str, int]) -> Streams:
+        return cls(
+            *(np.random.default_rng(seeds[name]) for name in ("noise", "start", "observation"))
+        )
+
+
+@dataclass
+class Training:
+    """A run's learning state: the optimizer (W*), bilevel's outer level, the cost balance, the
+    record so far, the mean that last inserted (``last_inserted_mean``) and why training
+    stopped."""
+
+    optimizer: Optimizer
+    outer: OuterLevel
+    balance: CostBalance
+    recorder: RunRecorder
+    evaluates_mean: bool
+    stop_reason: str
+    started: float = field(default_factory=time.perf_counter)
+    iterations: int = 0
+    rollout_seconds: float = 0.0
+    sigma: float = 0.0
+    samples: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 0)))
+    inserted_mean: NDArray[np.float64] | None = None
+    inserted_iteration: int | None = None
+
+    @classmethod
+    def start(cls, planner: Planner) -> Training:
+        cfg = planner.config
+        optimizer = make_optimizer(
+            dataclasses.replace(cfg.optimizer, seed=planner.seeds["exploration"]),
+            np.zeros(3 * cfg.dmp.n_basis),
+        )
+        hole = planner.scene.hole_pose
+        return cls(
+            optimizer=optimizer,
+            outer=OuterLevel(cfg, planner.scene.config.hole.depth_m, hole[2]),
+            balance=CostBalance(cfg.costs),
+            recorder=RunRecorder(hole, cfg.success_tolerance_m, planner.scene),
+            evaluates_mean=cfg.deploy_policy == "last_inserted_mean",
+            stop_reason=f"iteration budget ({cfg.iterations})",
+        )
+
+    def evaluate(
+        self, rollouts: RolloutWorkers, batch: list[Rollout]
+    ) -> list[tuple[Trace, CostTerms | None]]:
+        """The batch's (trace, J_inn terms), timed."""
+        t0 = time.perf_counter()
+        results = rollouts.evaluate(batch)
+        self.rollout_seconds += time.perf_counter() - t0
+        return results
+
+    def report(self, iteration: int, iterations: int) -> IterationReport:
+        return self.recorder.report(iteration, iterations, time.perf_counter() - self.started)
 
 
 class Planner:
@@ -203,85 +269,114 @@ class Planner:
     def run(
         self, progress: Callable[[IterationReport], None] | None = None, workers: int = 1
     ) -> RunRecord:
-        """Algorithm 1, then the deployment trials of the learned policy. With ``workers`` > 1
-        an iteration's rollouts run in that many processes (:class:`RolloutWorkers`); the
-        record is the same for any number of workers."""
-        with RolloutWorkers(self, workers) as rollouts:
-            return self._run(rollouts, progress)
-
-    def _run(
-        self, rollouts: RolloutWorkers, progress: Callable[[IterationReport], None] | None
-    ) -> RunRecord:
-        cfg = self.config
-        noise = np.random.default_rng(self.seeds["noise"])
-        optimizer = make_optimizer(
-            dataclasses.replace(cfg.optimizer, seed=self.seeds["exploration"]),
-            np.zeros(3 * cfg.dmp.n_basis),
-        )
-        outer = OuterLevel(cfg, self.scene.config.hole.depth_m, self.scene.hole_pose[2])
-        balance = CostBalance(cfg.costs)
-        recorder = RunRecorder(self.scene.hole_pose, cfg.success_tolerance_m, self.scene)
-        stop_reason = f"iteration budget ({cfg.iterations})"
+        """Algorithm 1 (:meth:`train`), then the deployment trials of the learned policy
+        (:meth:`deploy`). With ``workers`` > 1 an iteration's rollouts run in that many
+        processes (:class:`RolloutWorkers`); the record is the same for any number of workers."""
         started = time.perf_counter()
-        rollout_seconds = 0.0
-        evaluate_mean = cfg.deploy_policy == "last_inserted_mean"
-        policy, deployed_iteration = None, None
-        start_rng = np.random.default_rng(self.seeds["start"])
-        observation = np.random.default_rng(self.seeds["observation"])
-        sensed = first_sensed = self.sense_hole(noise)
+        with RolloutWorkers(self, workers) as rollouts:
+            training = self.train(rollouts, progress)
+            return self.deploy(rollouts, training, started)
+
+    def train(
+        self,
+        rollouts: RolloutWorkers,
+        progress: Callable[[IterationReport], None] | None = None,
+    ) -> Training:
+        """Algorithm 1: each iteration senses the hole, sets the goal, evaluates a batch of
+        rollouts and learns from it, until the budget or convergence."""
+        cfg = self.config
+        training = Training.start(self)
+        streams = Streams.of(self.seeds)
+        sensed = first_sensed = self.sense_hole(streams.noise)
         for iteration in range(1, cfg.iterations + 1):
+            # 1. Sense the hole: anew each iteration (Algorithm 1) or once per run.
             if iteration > 1 and cfg.sensing.redraw == "per_iteration":
-                sensed = self.sense_hole(noise)
-            target = self.target(outer, sensed)
-            simulated = self.simulated_hole(sensed, first_sensed)
-            sigma = optimizer.sigma
-            mean = optimizer.mean
-            samples = optimizer.ask()
-            train_std = cfg.train_start_std_m
-            batch = [
-                Rollout(self.offset_start(start_rng, train_std), target, w, sensed, simulated)
-                for w in samples
-            ]
-            # Drawn under every deploy policy, so that the next training starts do not depend on it.
-            mean_start = self.offset_start(start_rng, train_std)
-            if evaluate_mean:
-                batch.append(Rollout(mean_start, target, mean, sensed, simulated))
-            t0 = time.perf_counter()
-            results = rollouts.evaluate(batch)
-            rollout_seconds += time.perf_counter() - t0
-            traces, terms = zip(*results[: len(samples)])
-            costs = balance.totals(list(terms))
-            optimizer.tell(samples, costs)
-            k = self.cost_samples
-            tips = [self.observed_tips(t.q_peg_bottom[k], observation) for t in traces]
-            outer.observe(list(traces), self.cost_samples, tips)
-            recorder.add("train", iteration, batch, traces, terms, costs, sigma)
-            if evaluate_mean:
-                trace, term = results[-1]
-                recorder.add(
-                    "mean", iteration, batch[-1:], [trace], [term], balance.totals([term]), 0.0
-                )
-                tip = self.observed_tips(trace.q_peg_bottom[-1], observation)
-                if self.inserted(trace, sensed, tip):
-                    policy, deployed_iteration = mean, iteration
+                sensed = self.sense_hole(streams.noise)
+            # 2. The DMP's goal: the sensed hole (one-level) or the outer level's (eq. 15–16).
+            target = self.target(training.outer, sensed)
+            # 3. Rollouts W ~ N(W*, σ_W) (eq. 12) through the simulator, with their J_inn (eq. 11).
+            batch = self.training_batch(training, target, sensed, first_sensed, streams.start)
+            results = training.evaluate(rollouts, batch)
+            # 4. Update W* (eq. 13) and what the outer level has explored.
+            self.learn(training, iteration, batch, results, streams.observation)
             if progress:
-                progress(recorder.report(iteration, cfg.iterations, time.perf_counter() - started))
-            if self._converged(recorder.best_costs):
-                stop_reason = f"converged at iteration {iteration}"
+                progress(training.report(iteration, cfg.iterations))
+            if self._converged(training.recorder.best_costs):
+                training.stop_reason = f"converged at iteration {iteration}"
                 break
-        situations = self.deployment_trials(outer)
+        return training
+
+    def training_batch(
+        self,
+        training: Training,
+        target: NDArray[np.float64],
+        sensed: NDArray[np.float64],
+        first_sensed: NDArray[np.float64],
+        start_rng: np.random.Generator,
+    ) -> list[Rollout]:
+        """One iteration's rollouts: ``population_size`` samples of W, and with
+        ``last_inserted_mean`` the mean W* itself last."""
+        simulated = self.simulated_hole(sensed, first_sensed)
+        std = self.config.train_start_std_m
+        training.sigma, mean = training.optimizer.sigma, training.optimizer.mean
+        training.samples = training.optimizer.ask()
+        batch = [
+            Rollout(self.offset_start(start_rng, std), target, w, sensed, simulated)
+            for w in training.samples
+        ]
+        # Drawn under every deploy policy, so that the next training starts do not depend on it.
+        mean_start = self.offset_start(start_rng, std)
+        if training.evaluates_mean:
+            batch.append(Rollout(mean_start, target, mean, sensed, simulated))
+        return batch
+
+    def learn(
+        self,
+        training: Training,
+        iteration: int,
+        batch: list[Rollout],
+        results: list[tuple[Trace, CostTerms | None]],
+        observation: np.random.Generator,
+    ) -> None:
+        """Step 4 of an iteration: W* from the samples' costs, the outer level from the
+        observed tips, the rows of the record, and the mean's insertion (last_inserted_mean)."""
+        n = len(training.samples)
+        traces, terms = zip(*results[:n])
+        costs = training.balance.totals(list(terms))
+        training.optimizer.tell(training.samples, costs)
+        k = self.cost_samples
+        tips = [self.observed_tips(t.q_peg_bottom[k], observation) for t in traces]
+        training.outer.observe(list(traces), k, tips)
+        recorder = training.recorder
+        recorder.add("train", iteration, batch[:n], traces, terms, costs, training.sigma)
+        training.iterations = iteration
+        if training.evaluates_mean:
+            trace, term = results[-1]
+            mean_costs = training.balance.totals([term])
+            recorder.add("mean", iteration, batch[-1:], [trace], [term], mean_costs, 0.0)
+            tip = self.observed_tips(trace.q_peg_bottom[-1], observation)
+            if self.inserted(trace, batch[-1].sensed_hole, tip):
+                training.inserted_mean, training.inserted_iteration = batch[-1].weights, iteration
+
+    def deploy(self, rollouts: RolloutWorkers, training: Training, started: float) -> RunRecord:
+        """The learned policy deployed ``deploy_trials`` times on the real hole (and with
+        ``last_inserted_mean`` the final mean beside it, in the same situations); the run's
+        record."""
+        situations = self.deployment_trials(training.outer)
 
         def trials(weights: NDArray[np.float64]) -> list[Rollout]:
             return [Rollout(start, target, weights, sensed) for start, target, sensed in situations]
 
-        final_mean = optimizer.mean
+        recorder, balance, iteration = training.recorder, training.balance, training.iterations
+        final_mean = training.optimizer.mean
+        policy = training.inserted_mean
         deployed = trials(final_mean if policy is None else policy)
         deployed_results = rollouts.evaluate(deployed)
         deploy_rate = recorder.add_deployment(
             "deploy", iteration, deployed, deployed_results, balance
         )
         final_mean_rate = deploy_rate
-        if evaluate_mean:
+        if training.evaluates_mean:
             # The final mean in the same situations: the comparison policy, from the same
             # training. It is the deployed one when no evaluated mean inserted.
             final = trials(final_mean)
@@ -292,19 +387,19 @@ class Planner:
                 deployed_results if policy is None else rollouts.evaluate(final),
                 balance,
             )
-        rollouts, best_paths = recorder.tables()
+        rows, best_paths = recorder.tables()
         return RunRecord(
-            rollouts=rollouts,
+            rollouts=rows,
             best_paths=best_paths,
             success_iteration=recorder.success_iteration,
             deploy_success_rate=deploy_rate,
-            deployed_iteration=deployed_iteration,
+            deployed_iteration=training.inserted_iteration,
             final_mean_deploy_success_rate=final_mean_rate,
-            stop_reason=stop_reason,
+            stop_reason=training.stop_reason,
             seeds=self.seeds,
             cost_divisors=balance.divisors.tolist(),
             seconds=time.perf_counter() - started,
-            rollout_seconds=rollout_seconds,
+            rollout_seconds=training.rollout_seconds,
         )
 
     def offset_start(self, rng: np.random.Generator, std_m: float) -> NDArray[np.float64]:
