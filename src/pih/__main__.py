@@ -565,7 +565,7 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
     from pih.config import ConfigError
     from pih.outputs import write_table
     from pih.provenance import record as provenance_record
-    from pih.run_record import ROLLOUT_COLUMNS, RecordedRun
+    from pih.run_record import ROLLOUT_COLUMNS, Phase, RecordedRun, phase_rows
 
     if _missing_parent("redeploy", "--output", output):
         return 1
@@ -593,8 +593,8 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
         except ValueError as error:  # the record and its seeds disagree
             print(f"pih redeploy {run}: {_first_line(error)}", file=sys.stderr)
             return 1
-        before = record.rollouts[record.rollouts["phase"] == "deploy"]["success"].mean()
-        rate = table[table["phase"] == "deploy"]["success"].mean()
+        before = phase_rows(record.rollouts, Phase.DEPLOY)["success"].mean()
+        rate = phase_rows(table, Phase.DEPLOY)["success"].mean()
         rates.append(rate)
         print(
             f"{run.name}: deployed {rate:.0%} from starts offset by N(0, ({start_std_m:g} m)²) "

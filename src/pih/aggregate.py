@@ -18,6 +18,7 @@ import pandas as pd
 from pih.config import recorded_config, to_mapping
 from pih.outputs import read_provenance
 from pih.planner_config import PlannerConfig
+from pih.run_record import Phase, phase_rows
 from pih.scene_config import SceneConfig
 from pih.study_config import METHOD_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key, plain
 
@@ -49,7 +50,8 @@ def rate_over_runs(rates: pd.Series) -> tuple[float, float, float]:
 
 def best_training_rows(rollouts: pd.DataFrame) -> pd.DataFrame:
     """Each training iteration's lowest-cost rollout, in iteration order."""
-    return rollouts[(rollouts["phase"] == "train") & rollouts["is_best"]].sort_values("iteration")
+    train = phase_rows(rollouts, Phase.TRAIN)
+    return train[train["is_best"]].sort_values("iteration")
 
 
 def final_success_fraction(rollouts: pd.DataFrame, last: int = 10) -> float:
@@ -108,14 +110,12 @@ def run_summary(
     rollouts: pd.DataFrame, tolerance_m: float, time_step_s: float, deploy_policy: str
 ) -> dict[str, Any]:
     """One planning run's outcome: deployment success (the headline) and the training view."""
-    train = rollouts[rollouts["phase"] == "train"]
-    deploy = rollouts[rollouts["phase"] == "deploy"]
+    train = phase_rows(rollouts, Phase.TRAIN)
+    deploy = phase_rows(rollouts, Phase.DEPLOY)
     final_mean = (
-        deploy
-        if deploy_policy == "final_mean"
-        else rollouts[rollouts["phase"] == "deploy_final_mean"]
+        deploy if deploy_policy == "final_mean" else phase_rows(rollouts, Phase.DEPLOY_FINAL_MEAN)
     )
-    means = rollouts[rollouts["phase"] == "mean"].sort_values("iteration")
+    means = phase_rows(rollouts, Phase.MEAN).sort_values("iteration")
     best = best_training_rows(rollouts)
     successes = best.loc[best["success"], "iteration"]
     goal_reached = best.loc[best["target_hole_error_m"] <= tolerance_m, "iteration"]
@@ -147,8 +147,8 @@ def repeats_training(rollouts: pd.DataFrame) -> bool:
     hole): such trials cannot fail once the mean inserted, so they measure training, not
     deployment (the perturbed redeployment can fail)."""
     pose = ["final_bottom_x_m", "final_bottom_y_m", "final_bottom_theta_rad"]
-    deploy = rollouts.loc[rollouts["phase"] == "deploy", pose]
-    means = rollouts.loc[rollouts["phase"] == "mean", pose]
+    deploy = phase_rows(rollouts, Phase.DEPLOY)[pose]
+    means = phase_rows(rollouts, Phase.MEAN)[pose]
     if deploy.empty or means.empty:
         return False
     seen = set(map(tuple, means.to_numpy()))
@@ -272,7 +272,7 @@ def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -
     for path in map(Path, files):
         record = read_provenance(path)
         planner = record["config"]["planner"]
-        deploy = pd.read_parquet(path, columns=["phase", "success"]).query("phase == 'deploy'")
+        deploy = phase_rows(pd.read_parquet(path, columns=["phase", "success"]), Phase.DEPLOY)
         point = record["sweep_point"]
         rows.append(
             {

@@ -48,11 +48,14 @@ from pih.optimizers import Optimizer, make_optimizer
 from pih.outer import OuterLevel
 from pih.planner_config import PlannerConfig
 from pih.run_record import (
+    DEPLOYMENT_PHASES,
     ROLLOUT_COLUMNS,
     IterationReport,
+    Phase,
     Rollout,
     RunRecord,
     RunRecorder,
+    phase_rows,
     recorded_pose,
 )
 from pih.scene import PegInHoleScene
@@ -348,12 +351,12 @@ class Planner:
         tips = [self.observed_tips(t.q_peg_bottom[k], observation) for t in traces]
         training.outer.observe(list(traces), k, tips)
         recorder = training.recorder
-        recorder.add("train", iteration, batch[:n], traces, terms, costs, training.sigma)
+        recorder.add(Phase.TRAIN, iteration, batch[:n], traces, terms, costs, training.sigma)
         training.iterations = iteration
         if training.evaluates_mean:
             trace, term = results[-1]
             mean_costs = training.balance.totals([term])
-            recorder.add("mean", iteration, batch[-1:], [trace], [term], mean_costs, 0.0)
+            recorder.add(Phase.MEAN, iteration, batch[-1:], [trace], [term], mean_costs, 0.0)
             tip = self.observed_tips(trace.q_peg_bottom[-1], observation)
             if self.inserted(trace, batch[-1].sensed_hole, tip):
                 training.inserted_mean, training.inserted_iteration = batch[-1].weights, iteration
@@ -373,7 +376,7 @@ class Planner:
         deployed = trials(final_mean if policy is None else policy)
         deployed_results = rollouts.evaluate(deployed)
         deploy_rate = recorder.add_deployment(
-            "deploy", iteration, deployed, deployed_results, balance
+            Phase.DEPLOY, iteration, deployed, deployed_results, balance
         )
         final_mean_rate = deploy_rate
         if training.evaluates_mean:
@@ -381,7 +384,7 @@ class Planner:
             # training. It is the deployed one when no evaluated mean inserted.
             final = trials(final_mean)
             final_mean_rate = recorder.add_deployment(
-                "deploy_final_mean",
+                Phase.DEPLOY_FINAL_MEAN,
                 iteration,
                 final,
                 deployed_results if policy is None else rollouts.evaluate(final),
@@ -478,8 +481,8 @@ class Planner:
         balance = CostBalance(self.config.costs, cost_divisors)
         done: dict[bytes, list[tuple[Trace, CostTerms | None]]] = {}
         with RolloutWorkers(self, workers) as pool:
-            for phase in ("deploy", "deploy_final_mean"):
-                recorded = rollouts[rollouts["phase"] == phase]
+            for phase in DEPLOYMENT_PHASES:
+                recorded = phase_rows(rollouts, phase)
                 if recorded.empty:
                     continue
                 trials = self.redeployment(recorded, recorded_hole)

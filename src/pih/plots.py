@@ -16,6 +16,7 @@ import pandas as pd
 from pih.aggregate import best_training_rows
 from pih.outputs import write_with
 from pih.provenance import canonical_json, stable
+from pih.run_record import Phase, phase_rows
 from pih.scene_config import HoleConfig, hole_outline
 
 QUANTITIES = {
@@ -337,10 +338,10 @@ def run_figure(
     deployment outcome in the title. Every panel is titled, iterations are whole numbers and a
     legend names only what is drawn."""
     best = best_training_rows(rollouts)
-    deploy = rollouts[rollouts["phase"] == "deploy"]
+    deploy = phase_rows(rollouts, Phase.DEPLOY)
     fig, (cost_ax, goal_ax, path_ax) = plt.subplots(1, 3, figsize=(14, 4.2))
     cost_ax.plot(best["iteration"], best["cost"], marker=".", label="best rollout")
-    means = rollouts[rollouts["phase"] == "mean"]
+    means = phase_rows(rollouts, Phase.MEAN)
     if len(means):  # deploy_policy last_inserted_mean: the mean weights' own rollout
         inserted = means[means["success"]]
         cost_ax.plot(means["iteration"], means["cost"], color="tab:orange", lw=0.8, label="mean")
@@ -391,7 +392,7 @@ def run_figure(
     for ax in (cost_ax, goal_ax, path_ax):
         ax.grid(alpha=0.3)
     outcome = f"deployment {deploy['success'].mean():.0%} of {len(deploy)}" if len(deploy) else ""
-    final_mean = rollouts[rollouts["phase"] == "deploy_final_mean"]
+    final_mean = phase_rows(rollouts, Phase.DEPLOY_FINAL_MEAN)
     if len(final_mean):
         outcome += f" (the final mean: {final_mean['success'].mean():.0%})"
     fig.suptitle(f"{title}: {outcome}", fontsize=9)

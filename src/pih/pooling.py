@@ -22,6 +22,7 @@ from pih.config import ConfigError, recorded_config, to_mapping
 from pih.outputs import read_provenance
 from pih.planner_config import OuterConfig, PlannerConfig, replace
 from pih.provenance import canonical_json, input_sha256
+from pih.run_record import DEPLOYMENT_PHASES, Phase, phase_rows
 from pih.scene_config import SceneConfig
 from pih.study_config import METHOD_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key
 
@@ -95,11 +96,11 @@ class RunRecord:
         columns = ["phase", "cost", "success", "final_bottom_x_m", "final_bottom_y_m"]
         return pd.read_parquet(self.path, columns=columns)
 
-    def rows(self, phases: tuple[str, ...]) -> pd.DataFrame:
+    def rows(self, phases: tuple[Phase, ...]) -> pd.DataFrame:
         """The rollouts of these phases, as much of them as decides the pooled tables (read
         once per file)."""
         rollouts = self._decisive_rows
-        return rollouts[rollouts["phase"].isin(phases)].reset_index(drop=True)
+        return rollouts[rollouts["phase"].isin([p.value for p in phases])].reset_index(drop=True)
 
 
 def _flat(mapping: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -211,12 +212,14 @@ def _check_same_training(group: list[RunRecord]) -> None:
     for run in group:
         copied = first_at.setdefault(run.start_std_m, run)
         if run is not group[0]:
-            _check_same_rows(group[0], run, ("train",), "training rollouts")
+            _check_same_rows(group[0], run, (Phase.TRAIN,), "training rollouts")
         if run is not copied:
-            _check_same_rows(copied, run, ("deploy", "deploy_final_mean"), "deployments")
+            _check_same_rows(copied, run, DEPLOYMENT_PHASES, "deployments")
 
 
-def _check_same_rows(first: RunRecord, run: RunRecord, phases: tuple[str, ...], what: str) -> None:
+def _check_same_rows(
+    first: RunRecord, run: RunRecord, phases: tuple[Phase, ...], what: str
+) -> None:
     expected, rows = first.rows(phases), run.rows(phases)
     if not expected.equals(rows):  # NaN equals NaN here
         codes = f"code {first.record['code_version']} and {run.record['code_version']}"
@@ -319,7 +322,7 @@ def _check_draws(runs: list[RunRecord], keys: list[str]) -> None:
 
 
 def _deploy_rate(rollouts: pd.DataFrame) -> float:
-    return float(rollouts.loc[rollouts["phase"] == "deploy", "success"].mean())
+    return float(phase_rows(rollouts, Phase.DEPLOY)["success"].mean())
 
 
 def _deployment(

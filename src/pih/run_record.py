@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -24,6 +25,23 @@ from pih.scene_config import SceneConfig
 if TYPE_CHECKING:
     from pih.scene import PegInHoleScene
     from pih.trace import Trace
+
+
+class Phase(StrEnum):
+    """What a row of ``rollouts.parquet`` records (its ``phase`` column)."""
+
+    TRAIN = "train"  # a sampled rollout of Algorithm 1
+    MEAN = "mean"  # the iteration's mean weights W*, evaluated (last_inserted_mean)
+    DEPLOY = "deploy"  # a deployment trial of the learned policy
+    DEPLOY_FINAL_MEAN = "deploy_final_mean"  # the final mean, beside last_inserted_mean
+
+
+DEPLOYMENT_PHASES = (Phase.DEPLOY, Phase.DEPLOY_FINAL_MEAN)
+
+
+def phase_rows(rollouts: pd.DataFrame, phase: Phase) -> pd.DataFrame:
+    """The rows of ``rollouts`` recorded under ``phase``."""
+    return rollouts[rollouts["phase"] == phase.value]
 
 
 class Rollout(NamedTuple):
@@ -185,7 +203,7 @@ class RunRecorder:
 
     def add(
         self,
-        phase: str,
+        phase: Phase,
         iteration: int,
         batch: list[Rollout],
         traces: list[Trace],
@@ -202,7 +220,7 @@ class RunRecorder:
             error = hole_error_m(final, simulated)
             self.rows.append(
                 {
-                    "phase": phase,
+                    "phase": phase.value,
                     "iteration": iteration,
                     "rollout": r,
                     "cost": float(cost),
@@ -227,7 +245,7 @@ class RunRecorder:
                     "sigma": sigma,
                 }
             )
-        if phase == "train":
+        if phase == Phase.TRAIN:
             best = int(np.nanargmin(costs)) if np.any(np.isfinite(costs)) else 0
             row = self.rows[first + best]
             row["is_best"] = True
@@ -240,7 +258,7 @@ class RunRecorder:
 
     def add_deployment(
         self,
-        phase: str,
+        phase: Phase,
         iterations_trained: int,
         trials: list[Rollout],
         results: list[tuple[Trace, CostTerms | None]],

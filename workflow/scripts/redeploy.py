@@ -3,7 +3,7 @@ and, for a model error, on a real scene with other settings."""
 
 from pih.config import to_mapping
 from pih.outputs import write_table
-from pih.run_record import ROLLOUT_COLUMNS, RecordedRun
+from pih.run_record import ROLLOUT_COLUMNS, Phase, RecordedRun, phase_rows
 from pih.workflow import job_provenance, logged
 
 with logged(snakemake.log[0]):
@@ -25,7 +25,7 @@ with logged(snakemake.log[0]):
         extra={"seed_key": run.record["seed_key"], "model_error": model_error},
     )
     write_table(table, snakemake.output.rollouts, provenance, ROLLOUT_COLUMNS)
-    deployed = table[table["phase"] == "deploy"]["success"].mean()
+    deployed = phase_rows(table, Phase.DEPLOY)["success"].mean()
     error = f" on {model_error['name']} ({settings})" if settings else ""
     print(
         f"deployment success {deployed:.0%} from starts offset by N(0, ({start_std_m:g} m)²){error}"
