@@ -66,7 +66,7 @@ def one_line(error: BaseException | str) -> str:
         (lambda c: c["planner"].pop("dmp"), "planner.dmp: missing"),
         (lambda c: c.pop("robustness"), "robustness: missing"),
         (lambda c: c.update(planner=[1, 2]), "planner: [1, 2] is not allowed; expected a mapping"),
-        (lambda c: c["planner"].update(method=3), "planner.method: 3 is not allowed; expected one"),
+        (lambda c: c["planner"].update(goal=3), "planner.goal: 3 is not allowed; expected one"),
         (lambda c: c["scene"]["spring"].update(stiffness=[1, 2, "a"]), "scene.spring.stiffness[2]"),
         (lambda c: c["planner"]["dmp"].update(min_amplitude=[1]), "planner.dmp.min_amplitude"),
         (lambda c: c.update(sweep={}), "sweep: empty"),
@@ -581,23 +581,23 @@ def test_an_unknown_reference_variant_is_refused_naming_the_known_ones(
     tmp_path, capsys, planning_run
 ):
     write_study_run = test_cli.write_study_run
-    for method in ("one_level", "bilevel"):
-        write_study_run(tmp_path, planning_run, "a", method=method, variant=("paper", {}))
-    ours = ("ours", {"planner.outer.rule": "deepest_explored"})
+    for goal in ("sensed_hole", "explored_argmin"):
+        write_study_run(tmp_path, planning_run, "a", goal=goal, variant=("paper", {}))
+    tilt = ("tilt", {"planner.outer.goal_tilt": "sensed"})
     write_study_run(
         tmp_path,
         planning_run,
         "b",
-        method="bilevel",
-        variant=ours,
-        outer={"rule": "deepest_explored"},
+        goal="explored_argmin",
+        variant=tilt,
+        outer={"goal_tilt": "sensed"},
     )
     studies = [str(tmp_path / s / "results") for s in "ab"]
     out = tmp_path / "pooled"
     status = main(
         ["aggregate", *studies, "--output-dir", str(out), "--reference-variant", "nosuch"]
     )
-    assert_one_line_error(capsys, status, "'nosuch' is not a variant", "['ours', 'paper']")
+    assert_one_line_error(capsys, status, "'nosuch' is not a variant", "['paper', 'tilt']")
     assert not out.exists()
     assert (
         main(["aggregate", *studies, "--output-dir", str(out), "--reference-variant", "paper"]) == 0
@@ -605,7 +605,7 @@ def test_an_unknown_reference_variant_is_refused_naming_the_known_ones(
     # Runs that sweep no variant have no reference to compare with.
     capsys.readouterr()
     plain = tmp_path / "plain"
-    write_study_run(plain, planning_run, "c", method="bilevel")
+    write_study_run(plain, planning_run, "c", goal="explored_argmin")
     status = main(["aggregate", str(plain), "--output-dir", str(out), "--reference-variant", "x"])
     assert_one_line_error(capsys, status, "they sweep no variant")
 

@@ -205,13 +205,13 @@ def write_study_run(
     run, provenance = planning_run
     config = copy.deepcopy(provenance["config"])
     config["planner"] |= planner
-    method = config["planner"]["method"]
-    point = {"planner.method": method, "planner.seed": 0, "planner.start_x_m": -0.035}
+    goal = config["planner"]["goal"]
+    point = {"planner.goal": goal, "planner.seed": 0, "planner.start_x_m": -0.035}
     extra = {"seed_key": seed_key, "result": provenance["result"]}
-    directory = root / study / "results" / "planning" / f"{method}_seed~0"
+    directory = root / study / "results" / "planning" / f"{goal}_seed~0"
     if variant is not None:
         point["variant"], extra["variant_overrides"] = variant
-        directory = directory.with_name(f"{method}_variant~{variant[0]}_seed~0")
+        directory = directory.with_name(f"{goal}_variant~{variant[0]}_seed~0")
     rollouts = run.rollouts.copy()
     if inserted is not None:
         rollouts.loc[rollouts["phase"] == "deploy", "success"] = inserted
@@ -226,10 +226,10 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
     def study_run(study, **settings):
         return write_study_run(tmp_path, planning_run, study, **settings)
 
-    one_level = study_run("a", inserted=False, method="one_level")
-    study_run("a", inserted=True, method="bilevel")
-    study_run("b", inserted=False, method="one_level")  # the same training again: counts once
-    study_run("c", inserted=True, method="one_level", deploy_start_std_m=0.001)  # its twin
+    one_level = study_run("a", inserted=False, goal="sensed_hole")
+    study_run("a", inserted=True, goal="explored_argmin")
+    study_run("b", inserted=False, goal="sensed_hole")  # the same training again: counts once
+    study_run("c", inserted=True, goal="sensed_hole", deploy_start_std_m=0.001)  # its twin
     redeployed = tmp_path / "redeployed.parquet"
     assert (
         main(["redeploy", str(one_level), "--start-std-m", "0.0005", "--output", str(redeployed)])
@@ -264,14 +264,14 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
             pd.read_parquet(out / f"{table}.parquet"), pd.read_parquet(again / f"{table}.parquet")
         )
 
-    # A one-level run ignores the outer level: recorded under another rule it is a copy.
-    study_run("g", inserted=False, method="one_level", outer={"rule": "deepest_explored"})
+    # A one-level run ignores the outer level: recorded under other outer settings it is a copy.
+    study_run("g", inserted=False, goal="sensed_hole", outer={"goal_tilt": "sensed"})
     assert main(["aggregate", *studies[:2], str(tmp_path / "g"), "--output-dir", str(out)]) == 0
     assert "2 trainings" in capsys.readouterr().out
     copies = pd.read_parquet(out / "sources.parquet").query("role == 'copy'")
     assert len(copies) == 2
     # ... and bilevel runs' outer settings (not swept) do not keep it from pooling with them.
-    study_run("j", inserted=True, method="bilevel", outer={"entry_depth_m": 0.002})
+    study_run("j", inserted=True, goal="explored_argmin", outer={"entry_depth_m": 0.002})
     assert (
         main(["aggregate", studies[0], str(tmp_path / "j" / "results"), "--output-dir", str(out)])
         == 1
@@ -291,9 +291,9 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
         assert main(["aggregate", *map(str, paths), "--output-dir", str(out)]) == 1
         return capsys.readouterr().err
 
-    study_run("d", method="one_level", iterations=3)
+    study_run("d", goal="sensed_hole", iterations=3)
     assert "planner.iterations: 2 in" in refused(studies[0], tmp_path / "d")
-    retrained = study_run("h", method="one_level")
+    retrained = study_run("h", goal="sensed_hole")
     rows = pd.read_parquet(retrained / "rollouts.parquet")
     rows.loc[rows["phase"] == "train", "cost"] *= 1 + 1e-12
     write_table(
@@ -303,15 +303,15 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
         ROLLOUT_COLUMNS,
     )
     assert "different training rollouts" in refused(studies[0], retrained)
-    study_run("k", inserted=True, method="one_level")  # a's training, deployed otherwise
+    study_run("k", inserted=True, goal="sensed_hole")  # a's training, deployed otherwise
     assert "different deployments" in refused(studies[0], tmp_path / "k")
-    study_run("e", method="one_level", seed_key="another point")
+    study_run("e", goal="sensed_hole", seed_key="another point")
     assert "the same method and sweep levels but different trainings" in refused(
         studies[0], tmp_path / "e"
     )
-    study_run("f", method="bilevel", seed_key="another point")
+    study_run("f", goal="explored_argmin", seed_key="another point")
     assert "different random draws" in refused(studies[1], tmp_path / "f")
-    study_run("i", method="bilevel", deploy_start_std_m=0.001, seed_key="x")
+    study_run("i", goal="explored_argmin", deploy_start_std_m=0.001, seed_key="x")
     assert "no start std at which every pooled training" in refused(studies[1], tmp_path / "i")
     assert "not a redeploy output" in refused(studies[0], out / "success.parquet")
     assert "no such file" in refused(tmp_path / "missing")
@@ -322,11 +322,11 @@ def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, p
 def test_aggregate_pools_ablation_variants_only_where_their_overrides_differ(
     tmp_path, capsys, planning_run
 ):
-    ours = ("ours", {"planner.outer.rule": "deepest_explored"})
-    rule = {"outer": {"rule": "deepest_explored"}}
-    for method in ("one_level", "bilevel"):
-        write_study_run(tmp_path, planning_run, "a", method=method, variant=("paper", {}))
-    write_study_run(tmp_path, planning_run, "b", method="bilevel", variant=ours, **rule)
+    ours = ("tilt", {"planner.outer.goal_tilt": "sensed"})
+    rule = {"outer": {"goal_tilt": "sensed"}}
+    for goal in ("sensed_hole", "explored_argmin"):
+        write_study_run(tmp_path, planning_run, "a", goal=goal, variant=("paper", {}))
+    write_study_run(tmp_path, planning_run, "b", goal="explored_argmin", variant=ours, **rule)
     out = tmp_path / "pooled"
 
     def pooled(*studies):
@@ -337,13 +337,13 @@ def test_aggregate_pools_ablation_variants_only_where_their_overrides_differ(
     assert "3 trainings" in capsys.readouterr().out
     # Another study's variant with another budget: not what its name says.
     write_study_run(
-        tmp_path, planning_run, "c", method="bilevel", variant=ours, iterations=3, **rule
+        tmp_path, planning_run, "c", goal="explored_argmin", variant=ours, iterations=3, **rule
     )
     assert pooled("a", "c") == 1
     assert "planner.iterations: 2 in" in capsys.readouterr().err
     # A variant overriding the budget may differ in it.
     fewer = ("fewer", {"planner.iterations": 3})
-    write_study_run(tmp_path, planning_run, "d", method="bilevel", variant=fewer, iterations=3)
+    write_study_run(tmp_path, planning_run, "d", goal="explored_argmin", variant=fewer, iterations=3)
     assert pooled("a", "d") == 0
     capsys.readouterr()
 

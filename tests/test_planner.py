@@ -85,7 +85,7 @@ def tiny_runs():
     scene = COARSE
     first = Planner.from_configs(scene, config).run()
     second = Planner.from_configs(scene, config).run()
-    one_level = Planner.from_configs(scene, replace(config, method="one_level")).run()
+    one_level = Planner.from_configs(scene, replace(config, goal="sensed_hole")).run()
     return first, second, one_level
 
 
@@ -146,7 +146,7 @@ def test_first_iteration_goal_is_the_sensed_hole_for_both_methods(tiny_runs):
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
-        (lambda c: c.update(method="two_level"), r"planner\.method"),
+        (lambda c: c.update(goal="two_level"), r"planner\.goal"),
         (lambda c: c.update(iterations=0), r"planner\.iterations"),
         (lambda c: c["optimizer"].update(name="simplex"), r"planner\.optimizer\.name"),
         (lambda c: c["optimizer"].update(population_size=0), r"planner\.optimizer\.population"),
@@ -163,7 +163,6 @@ def test_first_iteration_goal_is_the_sensed_hole_for_both_methods(tiny_runs):
             r"planner\.sensing\.hole_std.*singular",
         ),
         (lambda c: c["dmp"].update(n_basis=0), r"planner\.dmp\.n_basis"),
-        (lambda c: c["outer"].update(rule="gradient"), r"planner\.outer\.rule"),
         (lambda c: c["outer"].update(goal_tilt="level"), r"planner\.outer\.goal_tilt"),
         (lambda c: c["sensing"].update(redraw="never"), r"planner\.sensing\.redraw"),
         (lambda c: c.update(deploy_trials=0), r"planner\.deploy_trials"),
@@ -222,27 +221,26 @@ def test_convergence_stop_ends_the_run_early_and_says_why():
 def test_seeds_differ_between_sweep_points_and_are_shared_by_the_methods():
     config = PlannerConfig()
     start_a = seed_key(
-        {"planner.start_x_m": -0.031, "planner.seed": 0, "planner.method": "bilevel"}
+        {"planner.start_x_m": -0.031, "planner.seed": 0, "planner.goal": "explored_argmin"}
     )
     start_b = seed_key(
-        {"planner.start_x_m": -0.032, "planner.seed": 0, "planner.method": "bilevel"}
+        {"planner.start_x_m": -0.032, "planner.seed": 0, "planner.goal": "explored_argmin"}
     )
     one_level = seed_key(
-        {"planner.start_x_m": -0.031, "planner.seed": 0, "planner.method": "one_level"}
+        {"planner.start_x_m": -0.031, "planner.seed": 0, "planner.goal": "sensed_hole"}
     )
     other_rule = seed_key(
         {
             "planner.start_x_m": -0.031,
             "planner.seed": 0,
-            "planner.method": "bilevel",
-            "planner.outer.rule": "deepest_explored",
+            "planner.goal": "deepest_explored",
         }
     )
     other_policy = seed_key(
         {
             "planner.start_x_m": -0.031,
             "planner.seed": 0,
-            "planner.method": "bilevel",
+            "planner.goal": "explored_argmin",
             "planner.deploy_policy": "last_inserted_mean",
             "planner.deploy_start_std_m": 0.001,
             "planner.train_start_std_m": 0.001,
@@ -260,18 +258,18 @@ def test_two_starts_draw_different_sensed_holes_and_both_methods_the_same():
     config = short_config(iterations=3, population_size=1, deploy_trials=1)
     scene = COARSE
 
-    def sensed(start_x_m: float, method: str) -> list[float]:
-        point = {"planner.start_x_m": start_x_m, "planner.method": method}
+    def sensed(start_x_m: float, goal: str) -> list[float]:
+        point = {"planner.start_x_m": start_x_m, "planner.goal": goal}
         planner = Planner.from_configs(
-            scene, replace(config, start_x_m=start_x_m, method=method), seed_key(point)
+            scene, replace(config, start_x_m=start_x_m, goal=goal), seed_key(point)
         )
         rows = planner.run().rollouts
         return rows.loc[rows["phase"] == "train", "sensed_hole_x_m"].tolist()
 
-    bilevel = sensed(-0.031, "bilevel")
-    assert bilevel == sensed(-0.031, "one_level")
+    bilevel = sensed(-0.031, "explored_argmin")
+    assert bilevel == sensed(-0.031, "sensed_hole")
     assert len(set(bilevel[:3])) == 3  # redrawn every iteration (Algorithm 1)
-    assert not set(bilevel) & set(sensed(-0.032, "bilevel"))
+    assert not set(bilevel) & set(sensed(-0.032, "explored_argmin"))
 
 
 def test_per_run_redraw_senses_the_hole_once():
@@ -437,7 +435,7 @@ def _trace_at(poses: np.ndarray, overlap: float = 0.0):
 
 
 def test_deepest_explored_aims_along_the_hole_axis_below_the_deepest_pose():
-    config = replace(PlannerConfig(), outer=OuterConfig(rule="deepest_explored"))
+    config = replace(PlannerConfig(), goal="deepest_explored")
     outer = OuterLevel(config, hole_depth_m=0.01, hole_theta_rad=0.0)
     sensed = np.array([0.006, -0.01, 0.0])
     assert np.array_equal(outer.goal(sensed), sensed)  # nothing explored yet

@@ -119,7 +119,7 @@ def test_cost_bands_differ_by_more_than_colour():
 
 def _success_rows():
     rows = []
-    for dimension, level in [("all", "all"), ("planner.outer.rule", "explored_argmin")]:
+    for dimension, level in [("all", "all"), ("planner.outer.goal_tilt", "explored")]:
         for method, rate in [("one_level", 0.2), ("bilevel/explored_argmin", 0.6)]:
             rows.append(
                 {
@@ -146,7 +146,7 @@ def test_deploy_success_rows_name_their_method_and_methods_differ_by_marker():
         "all runs",
         "bilevel/explored_argmin (n = 2 runs)",
         "one_level (n = 2 runs)",
-        "rule = explored_argmin",
+        "goal_tilt = explored",
         "bilevel/explored_argmin (n = 2 runs)",
         "one_level (n = 2 runs)",
     ]

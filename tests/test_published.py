@@ -98,7 +98,7 @@ def expected_runs(config_files):
     from pih.study_config import load_config, resolved_sections, sweep_points
 
     config = load_config(config_files)
-    points = sweep_points(config["sweep"], config.get("variants"), config["planner"]["method"])
+    points = sweep_points(config["sweep"], config.get("variants"), config["planner"]["goal"])
     return {point_key(p): resolved_sections(config, p) for p in points}
 
 

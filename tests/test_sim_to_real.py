@@ -152,11 +152,11 @@ def test_a_run_redeployed_on_a_moved_hole_senses_it_there(runs_by_mode):
     one-level's targets move), bilevel keeps its learned goal, success is judged on the moved
     hole; friction alone changes only the physics."""
     shift = 0.0005
-    for method in ("bilevel", "one_level"):
+    for goal in ("explored_argmin", "sensed_hole"):
         config = short_config(
-            iterations=2, population_size=3, deploy_policy="final_mean", method=method
+            iterations=2, population_size=3, deploy_policy="final_mean", goal=goal
         )
-        if method == "bilevel":
+        if goal == "explored_argmin":
             rows = runs_by_mode["true_hole"]
         else:
             rows = Planner.from_configs(COARSE, config).run().rollouts
@@ -165,7 +165,7 @@ def test_a_run_redeployed_on_a_moved_hole_senses_it_there(runs_by_mode):
         before = rows[rows["phase"] == "deploy"].reset_index(drop=True)
         np.testing.assert_allclose(again["sensed_hole_x_m"], before["sensed_hole_x_m"] + shift)
         target_shift = again["target_x_m"] - before["target_x_m"]
-        expected = shift if config.method == "one_level" else 0.0
+        expected = shift if config.goal == "sensed_hole" else 0.0
         np.testing.assert_allclose(target_shift, expected, atol=1e-15)
         assert np.all(again["simulated_hole_x_m"] == shift)
         error = np.hypot(again["final_bottom_x_m"] - shift, again["final_bottom_y_m"] + 0.01)
@@ -201,7 +201,7 @@ def test_model_errors_get_their_own_rows_and_pairs_and_leave_the_headline_alone(
     from pih.aggregate import robustness_pairs, robustness_table
     from pih.summary import model_error_rows, on_training_scene
 
-    keys = ["planner.start_x_m", "planner.method"]
+    keys = ["planner.start_x_m", "planner.goal"]
     rows = []
     for start, ours, theirs in (("-0.04", 1.0, 0.2), ("-0.035", 0.9, 0.1), ("-0.03", 0.8, 0.3)):
         for method, rate in (("bilevel/deepest_explored", ours), ("one_level", theirs)):

@@ -62,9 +62,9 @@ def lock(study: Path) -> None:
 
 def test_run_names_are_the_workflows(smoke):
     names = planning_names(smoke)
-    assert len(names) == 6  # 2 starts x (one-level once + bilevel x 2 outer rules)
-    assert "start_x_m~-0.035_method~bilevel_rule~explored_argmin_seed~0" in names
-    assert "start_x_m~-0.031_method~one_level_rule~explored_argmin_seed~0" in names
+    assert len(names) == 6  # 2 starts x 3 goals
+    assert "start_x_m~-0.035_goal~explored_argmin_seed~0" in names
+    assert "start_x_m~-0.031_goal~sensed_hole_seed~0" in names
     assert validation_names(smoke) == ["hydroelastic/offset_m~0.001", "point/offset_m~0.001"]
 
 

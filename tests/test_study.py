@@ -59,7 +59,7 @@ def test_bands_and_success_table_per_method_and_dimension():
             "planner.seed": ["0", "1", "0", "1"],
         }
     )
-    bands = cost_bands(runs, ["planner.method", "planner.seed"])
+    bands = cost_bands(runs, ["planner.goal", "planner.seed"])
     overall = bands[(bands["dimension"] == "all") & (bands["method"] == "a")].iloc[0]
     assert (overall["mean"], overall["var"], overall["count"]) == (2.0, 2.0, 2)
     per_seed = bands[(bands["dimension"] == "planner.seed") & (bands["method"] == "b")]
@@ -67,7 +67,7 @@ def test_bands_and_success_table_per_method_and_dimension():
     # Fig. 9 draws the overall bands; an ablation's variants (other designs, other cost scales)
     # one band each.
     assert figure_bands(bands).equals(bands[bands["dimension"] == "all"])
-    variants = cost_bands(runs.assign(variant=["p", "q", "p", "q"]), ["planner.method", "variant"])
+    variants = cost_bands(runs.assign(variant=["p", "q", "p", "q"]), ["planner.goal", "variant"])
     drawn = figure_bands(variants).set_index("method")["mean"].to_dict()
     assert drawn == {
         "a, variant p": 1.0,
@@ -92,7 +92,7 @@ def test_bands_and_success_table_per_method_and_dimension():
             "deploy_repeats_training": [True, True, False],
         }
     )
-    table = success_table(summaries, ["planner.method", "planner.seed"])
+    table = success_table(summaries, ["planner.goal", "planner.seed"])
     overall = table[table["dimension"] == "all"].set_index("method")
     assert overall.loc["a", "deploy_success_rate"] == 0.75
     assert (overall.loc["a", "deploy_ci_low"], overall.loc["a", "deploy_ci_high"]) == pytest.approx(
@@ -102,7 +102,7 @@ def test_bands_and_success_table_per_method_and_dimension():
     assert overall.loc["a", "final_mean_deploy_ci_high"] == pytest.approx(wilson_interval(1, 2)[1])
     assert math.isnan(overall.loc["b", "final_mean_deploy_ci_low"])
     # A run without a final-mean deployment (NaN) is no observation of its interval.
-    pooled = success_table(summaries.assign(method="a"), ["planner.method", "planner.seed"])
+    pooled = success_table(summaries.assign(method="a"), ["planner.goal", "planner.seed"])
     pooled = pooled[pooled["dimension"] == "all"].iloc[0]
     assert pooled["runs"] == 3 and pooled["final_mean_deploy_success_rate"] == 0.5
     assert (pooled["final_mean_deploy_ci_low"], pooled["final_mean_deploy_ci_high"]) == (
@@ -123,7 +123,7 @@ def test_bands_and_success_table_per_method_and_dimension():
     assert seed_one["method"].tolist() == ["a"] and seed_one["runs"].tolist() == [1]
     # A dimension with one level would only repeat the overall rows: it gets none.
     one_seed = summaries.assign(**{"planner.seed": "0"})
-    dimensions = success_table(one_seed, ["planner.method", "planner.seed"])["dimension"]
+    dimensions = success_table(one_seed, ["planner.goal", "planner.seed"])["dimension"]
     assert set(dimensions) == {"all"}
     # The ablation table pools the replicates (seeds, starts) and keeps the compared dimensions.
     dims = pd.DataFrame({"dimension": ["all", "planner.seed", "variant", "planner.start_x_m"]})
@@ -138,7 +138,7 @@ def test_sign_test_known_values():
 
 
 def test_paired_table_compares_methods_at_the_points_both_ran():
-    keys = ["planner.method", "variant", "planner.seed"]
+    keys = ["planner.goal", "variant", "planner.seed"]
     summaries = pd.DataFrame(
         {
             "method": ["bilevel", "one_level"] * 4 + ["bilevel"],
@@ -164,31 +164,31 @@ def test_paired_table_compares_methods_at_the_points_both_ran():
 def test_variant_pairs_compare_each_variant_with_the_reference_per_method():
     from pih.aggregate import variant_pairs
 
-    keys = ["planner.method", "variant", "planner.seed"]
+    keys = ["planner.goal", "variant", "planner.seed"]
     summaries = pd.DataFrame(
         {
             "method": ["bilevel/explored_argmin", "one_level"] * 2
-            + ["bilevel/deepest_explored"] * 2
+            + ["bilevel/explored_argmin"] * 2
             + ["bilevel/explored_argmin", "one_level"] * 2,
-            "variant": ["paper"] * 4 + ["ours"] * 2 + ["per_run"] * 4,
+            "variant": ["paper"] * 4 + ["tilt"] * 2 + ["per_run"] * 4,
             "planner.seed": ["0", "0", "1", "1", "0", "1", "0", "0", "1", "1"],
             "deploy_success_rate": [0.2, 0.1, 0.5, 0.0, 1.0, 1.0, 0.2, 0.3, 0.1, 0.0],
         }
     )
     table = variant_pairs(summaries, keys, reference="paper").set_index(["level", "method"])
-    # ours has no one-level runs (they would be paper's): one row; per_run: one per method.
+    # tilt has no one-level runs (they would be paper's): one row; per_run: one per method.
     assert sorted(table.index) == [
-        ("ours", "bilevel/deepest_explored"),
         ("per_run", "bilevel/explored_argmin"),
         ("per_run", "one_level"),
+        ("tilt", "bilevel/explored_argmin"),
     ]
-    ours = table.loc[("ours", "bilevel/deepest_explored")]
-    assert ours["versus"] == "bilevel/explored_argmin at variant paper"
-    assert (ours["pairs"], ours["better"], ours["worse"]) == (2, 2, 0)
-    assert ours["mean_difference"] == pytest.approx((0.8 + 0.5) / 2)
+    tilt = table.loc[("tilt", "bilevel/explored_argmin")]
+    assert tilt["versus"] == "bilevel/explored_argmin at variant paper"
+    assert (tilt["pairs"], tilt["better"], tilt["worse"]) == (2, 2, 0)
+    assert tilt["mean_difference"] == pytest.approx((0.8 + 0.5) / 2)
     one_level = table.loc[("per_run", "one_level")]
     assert (one_level["better"], one_level["worse"], one_level["tied"]) == (1, 0, 1)
-    assert variant_pairs(summaries, ["planner.method", "planner.seed"], "paper").empty
+    assert variant_pairs(summaries, ["planner.goal", "planner.seed"], "paper").empty
 
 
 def test_robustness_table_per_method_and_start_std_counts_each_run_once():
@@ -202,7 +202,7 @@ def test_robustness_table_per_method_and_start_std_counts_each_run_once():
         }
     )
     again = deployments.iloc[:1]  # a redeployment at the run's own std, identical by design
-    table = robustness_table(pd.concat([deployments, again]), ["planner.method", "planner.seed"])
+    table = robustness_table(pd.concat([deployments, again]), ["planner.goal", "planner.seed"])
     bilevel = table[table["method"] == "bilevel"].set_index("start_std_m")
     assert bilevel["runs"].tolist() == [2, 2]
     assert bilevel.loc[0.001, "deploy_success_rate"] == pytest.approx(0.9)
@@ -212,11 +212,11 @@ def test_robustness_table_per_method_and_start_std_counts_each_run_once():
         low,
         high,
     )
-    pairs = robustness_pairs(deployments, ["planner.method", "planner.seed"])
+    pairs = robustness_pairs(deployments, ["planner.goal", "planner.seed"])
     assert pairs["level"].tolist() == ["0.0", "0.001"] and (pairs["better"] == 2).all()
     # A compared dimension (an ablation's variant) splits the table; the replicates do not.
     variants = deployments.assign(variant=["a", "a", "b", "b"] * 2)
-    split = robustness_table(variants, ["planner.method", "variant", "planner.seed"])
+    split = robustness_table(variants, ["planner.goal", "variant", "planner.seed"])
     assert list(split.columns[:3]) == ["method", "variant", "start_std_m"]
     assert len(split) == 2 * 2 * 2 and (split["runs"] == 1).all()
 
@@ -224,26 +224,27 @@ def test_robustness_table_per_method_and_start_std_counts_each_run_once():
 def test_sweep_points_skip_repeated_one_level_runs_and_reject_bad_sweeps():
     sweep = {
         "planner.start_x_m": [-0.04, -0.03],
-        "planner.method": ["one_level", "bilevel"],
-        "planner.outer.rule": ["explored_argmin", "deepest_explored"],
+        "planner.goal": ["sensed_hole", "explored_argmin", "deepest_explored"],
+        "planner.outer.goal_tilt": ["explored", "sensed"],
     }
     points = sweep_points(sweep)
-    assert len(points) == 2 * (1 + 2)
-    one_level = [p for p in points if p["planner.method"] == "one_level"]
-    assert {p["planner.outer.rule"] for p in one_level} == {"explored_argmin"}
+    # One-level ignores the outer rules' settings: one run per start, bilevel one per setting.
+    assert len(points) == 2 * (1 + 2 * 2)
+    one_level = [p for p in points if p["planner.goal"] == "sensed_hole"]
+    assert {p["planner.outer.goal_tilt"] for p in one_level} == {"explored"}
     # One-level depends on which weights it deploys: one run per deploy policy.
     policies = sweep_points(
         {
-            "planner.method": ["one_level", "bilevel"],
+            "planner.goal": ["sensed_hole", "explored_argmin"],
             "planner.deploy_policy": ["final_mean", "last_inserted_mean"],
         }
     )
     assert len(policies) == 4
-    # A study whose config fixes the method to one-level makes one run per start, whatever the
-    # outer level it sweeps; bilevel makes one per rule.
-    rules = {"planner.start_x_m": [-0.04, -0.03], "planner.outer.rule": sweep["planner.outer.rule"]}
-    assert len(sweep_points(rules, method="one_level")) == 2
-    assert len(sweep_points(rules, method="bilevel")) == 4
+    # A study whose config fixes the goal to the sensed hole makes one run per start, whatever
+    # the outer settings it sweeps; a bilevel goal makes one per setting.
+    tilts = {"planner.start_x_m": [-0.04, -0.03], "planner.outer.goal_tilt": ["explored", "sensed"]}
+    assert len(sweep_points(tilts, goal="sensed_hole")) == 2
+    assert len(sweep_points(tilts, goal="explored_argmin")) == 4
     with pytest.raises(ConfigError, match=r"sweep\.planner\.seed: repeated level"):
         sweep_points({"planner.seed": [0, 0]})
     with pytest.raises(ConfigError, match="planner.seed.*planner.optimizer.seed"):
@@ -266,30 +267,30 @@ def test_final_success_fraction_uses_the_last_best_rollouts():
 def test_variants_are_named_overrides_swept_like_a_dimension():
     variants = {
         "paper": {},
-        "ours": {"planner.outer.rule": "deepest_explored"},
+        "tilt": {"planner.outer.goal_tilt": "sensed"},
         "once": {"planner.sensing.redraw": "per_run"},
     }
-    sweep = {"planner.method": ["one_level", "bilevel"], "variant": list(variants)}
+    sweep = {"planner.goal": ["sensed_hole", "deepest_explored"], "variant": list(variants)}
     points = sweep_points(sweep, variants)
-    # One-level ignores "ours" (an outer-level change) but not "once".
-    assert [(p["planner.method"], p["variant"]) for p in points] == [
-        ("one_level", "paper"),
-        ("one_level", "once"),
-        ("bilevel", "paper"),
-        ("bilevel", "ours"),
-        ("bilevel", "once"),
+    # One-level ignores "tilt" (an outer-level change) but not "once".
+    assert [(p["planner.goal"], p["variant"]) for p in points] == [
+        ("sensed_hole", "paper"),
+        ("sensed_hole", "once"),
+        ("deepest_explored", "paper"),
+        ("deepest_explored", "tilt"),
+        ("deepest_explored", "once"),
     ]
     config = {**base_config(), "variants": variants}
-    _, planner = resolve(config, {"variant": "ours", "planner.method": "bilevel"})
-    assert planner.outer.rule == "deepest_explored" and planner.method == "bilevel"
+    _, planner = resolve(config, {"variant": "tilt", "planner.goal": "deepest_explored"})
+    assert planner.outer.goal_tilt == "sensed" and planner.goal == "deepest_explored"
     # Variants and methods share their random draws; other levels do not.
-    assert seed_key({"variant": "ours", "planner.seed": 1}) == seed_key({"planner.seed": 1})
+    assert seed_key({"variant": "tilt", "planner.seed": 1}) == seed_key({"planner.seed": 1})
     with pytest.raises(ConfigError, match="sweep.variant.*'nope'"):
         sweep_points({"variant": ["nope"]}, variants)
     with pytest.raises(ConfigError, match="variant 'nope'"):
         resolve(config, {"variant": "nope"})
     # What a run records its variant as standing for (pooling checks it).
-    assert variant_overrides(config, {"variant": "ours"}) == variants["ours"]
+    assert variant_overrides(config, {"variant": "tilt"}) == variants["tilt"]
     assert variant_overrides(config, {"planner.seed": 1}) == {}
 
 

@@ -17,10 +17,10 @@ import pandas as pd
 
 from pih.config import recorded_config, to_mapping
 from pih.outputs import read_provenance
-from pih.planner_config import PlannerConfig
+from pih.planner_config import method_label, recorded_planner, upgraded
 from pih.run_record import Phase, phase_rows
 from pih.scene_config import SceneConfig
-from pih.study_config import METHOD_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key, plain
+from pih.study_config import GOAL_KEY, VARIANT_KEY, is_method_key, plain, upgraded_point
 
 
 def wilson_interval(successes: float, trials: int, z: float = 1.96) -> tuple[float, float]:
@@ -91,9 +91,9 @@ def figure_bands(bands: pd.DataFrame) -> pd.DataFrame:
 
 
 def variant(planner: Mapping[str, Any]) -> str:
-    """A run's method as the study compares it: ``one_level``, or ``bilevel/<outer rule>``."""
-    method = planner["method"]
-    return method if method == "one_level" else f"{method}/{planner['outer']['rule']}"
+    """A run's method as the study compares it (its recorded ``planner`` section, any age):
+    ``one_level``, or ``bilevel/<outer rule>``."""
+    return method_label(upgraded(planner)["goal"])
 
 
 def run_title(point: Mapping[str, Any], planner: Mapping[str, Any]) -> str:
@@ -232,11 +232,11 @@ def run_tables(
     bests, summaries = [], []
     for path in map(Path, rollout_files):
         record = read_provenance(path)
-        planner = recorded_config(PlannerConfig, record["config"], "planner")
+        planner = recorded_planner(record["config"])
         scene = recorded_config(SceneConfig, record["config"], "scene")
         rollouts = pd.read_parquet(path)
         if tags is None:
-            point = record["sweep_point"]
+            point = upgraded_point(record["sweep_point"])
             own = {"run": path.parent.name, **{k: point[k] for k in split_keys(sweep_keys)}}
         else:
             own = tags[path]
@@ -273,7 +273,7 @@ def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -
         record = read_provenance(path)
         planner = record["config"]["planner"]
         deploy = phase_rows(pd.read_parquet(path, columns=["phase", "success"]), Phase.DEPLOY)
-        point = record["sweep_point"]
+        point = upgraded_point(record["sweep_point"])
         rows.append(
             {
                 "method": variant(planner),
@@ -369,7 +369,7 @@ def _with_model_error(deployments: pd.DataFrame) -> pd.DataFrame:
 
 def split_keys(sweep_keys: list[str]) -> list[str]:
     """The sweep dimensions tables are split by: all but those :func:`variant` labels name."""
-    return [key for key in sweep_keys if key not in (METHOD_KEY, OUTER_PREFIX + "rule")]
+    return [key for key in sweep_keys if key != GOAL_KEY]
 
 
 def level_columns(sweep_keys: list[str]) -> dict[str, tuple[str, str]]:
@@ -533,32 +533,29 @@ class PlanningTables:
 
 def variant_pairs(summaries: pd.DataFrame, sweep_keys: list[str], reference: str) -> pd.DataFrame:
     """Each variant of an ablation against the reference variant (the sweep's first, e.g. the
-    paper-literal one), per planning method (one-level, bilevel), at the points both ran: the
+    paper-literal one), method by method, at the points both ran: the
     same levels but the variant's, so the same draws. Rows as :func:`paired_table`'s, with
     dimension ``variant``, the variant as level and ``versus`` naming the reference."""
     columns = list(PAIRED_COLUMNS)
     if VARIANT_KEY not in sweep_keys:
         return pd.DataFrame(columns=columns)
     others = [k for k in split_keys(sweep_keys) if k != VARIANT_KEY]
-    frame = summaries.assign(base=summaries["method"].str.split("/").str[0])
-    reference_runs = frame[frame[VARIANT_KEY] == reference].set_index(["base", *others])
+    reference_runs = summaries[summaries[VARIANT_KEY] == reference].set_index(["method", *others])
     rows = []
-    variants = frame[frame[VARIANT_KEY] != reference]
+    variants = summaries[summaries[VARIANT_KEY] != reference]
     for (level, method), runs in variants.groupby([VARIANT_KEY, "method"], sort=True):
-        joined = runs.set_index(["base", *others]).join(
-            reference_runs[["method", "deploy_success_rate"]].add_suffix("_reference"),
-            how="inner",
+        joined = runs.set_index(["method", *others]).join(
+            reference_runs[["deploy_success_rate"]].add_suffix("_reference"), how="inner"
         )
         if joined.empty:
             continue
         difference = joined["deploy_success_rate"] - joined["deploy_success_rate_reference"]
-        versus = sorted(set(joined["method_reference"]))
         rows.append(
             {
                 "method": method,
                 "dimension": VARIANT_KEY,
                 "level": level,
-                "versus": f"{' / '.join(versus)} at {VARIANT_KEY} {reference}",
+                "versus": f"{method} at {VARIANT_KEY} {reference}",
                 **_pair_counts(difference),
             }
         )

@@ -80,7 +80,7 @@ class OuterLevel:
             return sensed.copy()
         top_y = sensed[1] + self.hole_depth_m  # y_H is sensed exactly (eq. 16b)
         if (
-            cfg.rule == "deepest_explored"
+            self.config.goal == "deepest_explored"
             and self.deepest is not None
             and self.deepest[1] < top_y - cfg.entry_depth_m
         ):

@@ -46,7 +46,7 @@ from pih.costs import CostBalance, CostTerms, inner_cost
 from pih.dmp import Dmp
 from pih.optimizers import Optimizer, make_optimizer
 from pih.outer import OuterLevel
-from pih.planner_config import PlannerConfig
+from pih.planner_config import ONE_LEVEL, PlannerConfig
 from pih.run_record import (
     DEPLOYMENT_PHASES,
     ROLLOUT_COLUMNS,
@@ -267,7 +267,7 @@ class Planner:
 
     def target(self, outer: OuterLevel, sensed: NDArray[np.float64]) -> NDArray[np.float64]:
         """One-level aims at the sensed hole; bilevel where its outer level says."""
-        return sensed.copy() if self.config.method == "one_level" else outer.goal(sensed)
+        return sensed.copy() if self.config.goal == ONE_LEVEL else outer.goal(sensed)
 
     def run(
         self, progress: Callable[[IterationReport], None] | None = None, workers: int = 1
@@ -459,7 +459,7 @@ class Planner:
                     f"not where the record does (not the run's seeds)"
                 )
             target = recorded_pose(row, "target")
-            if self.config.method == "one_level":
+            if self.config.goal == ONE_LEVEL:
                 target = target + shift
             weights = np.asarray(row["weights"], float)
             trials.append(Rollout(start, target, weights, sensed))

@@ -7,25 +7,28 @@ explains the choices.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from pih.config import described, require, require_finite, require_positive
+from pih.config import described, recorded_config, require, require_finite, require_positive
 from pih.dmp import DmpConfig
 from pih.optimizers import OptimizerConfig
 
-Method = Literal["one_level", "bilevel"]
-METHODS: tuple[str, ...] = ("one_level", "bilevel")
+Goal = Literal["sensed_hole", "explored_argmin", "deepest_explored"]
+GOALS: tuple[str, ...] = ("sensed_hole", "explored_argmin", "deepest_explored")
+ONE_LEVEL: Goal = "sensed_hole"
+"""The goal of one-level planning; the others are bilevel's outer rules."""
 
 
 Balance = Literal["none", "first_iteration_median"]
 Redraw = Literal["per_iteration", "per_run"]
-OuterRule = Literal["explored_argmin", "deepest_explored"]
 GoalTilt = Literal["explored", "sensed"]
 DeployPolicy = Literal["final_mean", "last_inserted_mean"]
 SimulatedHole = Literal["true_hole", "sensed_per_run", "sensed_per_iteration"]
@@ -142,16 +145,8 @@ class SensingConfig:
 
 @dataclass(frozen=True)
 class OuterConfig:
-    """How bilevel's outer level sets the DMP goal (eq. 15–16); see docs/planner.md."""
+    """Settings of bilevel's outer rules (``planner.goal``, eq. 15–16); see docs/planner.md."""
 
-    rule: OuterRule = described(
-        "explored_argmin",
-        "explored_argmin: the paper's rule, arg min J_out over the peg-tip poses P2 explored by "
-        "the previous iteration; deepest_explored: once some rollout has put P2 more than "
-        "entry_depth_m below the hole's top surface with the peg within max_tilt_rad of the "
-        "hole's axis, aim along that axis (x of the deepest such P2 so far, the sensed depth y_H "
-        "and tilt θ_H, eq. 16b: exact), before that the paper's rule",
-    )
     goal_tilt: GoalTilt = described(
         "explored",
         "the paper's rule's goal tilt: the chosen explored pose's (explored) or θ_H (sensed)",
@@ -174,10 +169,15 @@ class OuterConfig:
 class PlannerConfig:
     """The planner (paper Table 4, §3.3; docs/planner.md): method, start, budget, deployment."""
 
-    method: Method = described(
-        "bilevel",
-        "one_level: the DMP's goal is the sensed hole; bilevel: the outer level (planner.outer) "
-        "sets it",
+    goal: Goal = described(
+        "explored_argmin",
+        "the DMP's goal q_R(T), which names the method: sensed_hole (one-level: the sensed "
+        "hole); bilevel's outer level (planner.outer) with explored_argmin (the paper's rule, "
+        "arg min J_out over the peg-tip poses P2 explored by the previous iteration, eq. 15–16) "
+        "or deepest_explored (ours: once some rollout has put P2 more than entry_depth_m below "
+        "the hole's top surface with the peg within max_tilt_rad of the hole's axis, aim along "
+        "that axis: x of the deepest such P2 so far, the sensed depth y_H and tilt θ_H; before "
+        "that the paper's rule)",
     )
     iterations: int = described(50, "training iterations (Table 4, §3.3)")
     start_x_m: float = described(
@@ -262,7 +262,7 @@ class PlannerConfig:
     outer: OuterConfig = field(default_factory=OuterConfig)
 
     def validate(self, prefix: str = "") -> None:
-        require(self.method in METHODS, prefix + "method", f"one of {list(METHODS)}", self.method)
+        require(self.goal in GOALS, prefix + "goal", f"one of {list(GOALS)}", self.goal)
         require(self.iterations >= 1, prefix + "iterations", "an integer >= 1", self.iterations)
         require_finite(prefix + "start_x_m", self.start_x_m)
         require_positive(self, ("start_height_m", "success_tolerance_m"), prefix)
@@ -322,6 +322,28 @@ class PlannerConfig:
         self.costs.validate(prefix + "costs.")
         self.sensing.validate(prefix + "sensing.")
         self.outer.validate(prefix + "outer.")
+
+
+def method_label(goal: str) -> str:
+    """The method a goal names, as tables label it: ``one_level``, or ``bilevel/<outer rule>``."""
+    return "one_level" if goal == ONE_LEVEL else f"bilevel/{goal}"
+
+
+def upgraded(planner: Mapping[str, Any]) -> dict[str, Any]:
+    """A recorded ``planner`` section in today's keys: records from before ``planner.goal``
+    name the method with ``method`` (one_level, bilevel) and ``outer.rule``."""
+    planner = copy.deepcopy(dict(planner))
+    if "method" in planner:
+        method = planner.pop("method")
+        rule = (planner.get("outer") or {}).pop("rule", "explored_argmin")
+        planner["goal"] = ONE_LEVEL if method == "one_level" else rule
+    return planner
+
+
+def recorded_planner(config: Mapping[str, Any]) -> PlannerConfig:
+    """The ``planner`` section of a recorded config (a provenance record's), keys the run
+    predates read as their defaults, old method keys :func:`upgraded`."""
+    return recorded_config(PlannerConfig, {"planner": upgraded(config["planner"])}, "planner")
 
 
 def replace(config: PlannerConfig, **changes: object) -> PlannerConfig:

@@ -20,15 +20,17 @@ import pandas as pd
 from pih.aggregate import run_tables, split_keys, variant
 from pih.config import ConfigError, recorded_config, to_mapping
 from pih.outputs import read_provenance
-from pih.planner_config import OuterConfig, PlannerConfig, replace
+from pih.planner_config import ONE_LEVEL, OuterConfig, method_label, recorded_planner, replace
+
+ONE_LEVEL_LABEL = method_label(ONE_LEVEL)
 from pih.provenance import canonical_json, input_sha256
 from pih.run_record import DEPLOYMENT_PHASES, Phase, phase_rows
 from pih.scene_config import SceneConfig
-from pih.study_config import METHOD_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key
+from pih.study_config import GOAL_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key, upgraded_point
 
 DEPLOY_STD_KEY = "planner.deploy_start_std_m"
 REDEPLOY_PATTERN = "redeploy_start_std_m~*.parquet"
-LABEL_KEYS = (METHOD_KEY, OUTER_PREFIX + "rule")
+LABEL_KEYS = (GOAL_KEY,)
 """Keys the method label (:func:`pih.aggregate.variant`) shows, so runs may differ in them."""
 
 
@@ -60,8 +62,8 @@ class RunRecord:
         record = _provenance(path, "plan")
         config = record["config"]
         scene = recorded_config(SceneConfig, config, "scene")
-        planner = recorded_config(PlannerConfig, config, "planner")
-        if planner.method == "one_level":
+        planner = recorded_planner(config)
+        if planner.goal == ONE_LEVEL:
             planner = replace(planner, outer=OuterConfig())
         settings = _flat({"scene": to_mapping(scene), "planner": to_mapping(planner)})
         undeployed = to_mapping(replace(planner, deploy_start_std_m=0.0))
@@ -84,8 +86,9 @@ class RunRecord:
         that are not config paths, such as ``variant``)."""
         if key in self.settings:
             return self.settings[key]
-        if key in self.record["sweep_point"]:
-            return self.record["sweep_point"][key]
+        point = upgraded_point(self.record["sweep_point"])
+        if key in point:
+            return point[key]
         raise ConfigError(
             f"{self.path}: no level for sweep key {key!r} (neither in its sweep point nor in its "
             "config); pool runs of studies that share their sweep dimensions"
@@ -155,7 +158,7 @@ def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
     its directory (the sweep point)."""
     # In path order, so that which copy heads a training does not depend on the arguments' order.
     records = sorted((RunRecord.read(path) for path in run_files), key=lambda run: str(run.path))
-    swept = dict.fromkeys(k for run in records for k in run.record["sweep_point"])
+    swept = dict.fromkeys(k for run in records for k in upgraded_point(run.record["sweep_point"]))
     keys = [k for k in swept if k != DEPLOY_STD_KEY]
     trainings: dict[str, list[RunRecord]] = {}
     for run in records:
@@ -260,7 +263,7 @@ def _check_settings(runs: list[RunRecord], keys: list[str]) -> None:
 
 def _check_same_design(first: RunRecord, run: RunRecord, allowed: set[str]) -> None:
     # A one-level run ignores the outer level, whatever the bilevel runs set there.
-    ignored = OUTER_PREFIX if "one_level" in (first.method, run.method) else None
+    ignored = OUTER_PREFIX if ONE_LEVEL_LABEL in (first.method, run.method) else None
     differing = sorted(
         key
         for key in first.settings.keys() | run.settings.keys()
@@ -280,7 +283,7 @@ def _check_same_design(first: RunRecord, run: RunRecord, allowed: set[str]) -> N
 def _levels(run: RunRecord, keys: list[str]) -> list[Any]:
     """The run's levels of the split keys; a one-level run has no outer level."""
     return [
-        None if run.method == "one_level" and k.startswith(OUTER_PREFIX) else run.level(k)
+        None if run.method == ONE_LEVEL_LABEL and k.startswith(OUTER_PREFIX) else run.level(k)
         for k in split_keys(keys)
     ]
 

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from pih.config import recorded_config, to_mapping
 from pih.costs import CostBalance, CostTerms
 from pih.outputs import read_provenance
-from pih.planner_config import COST_TERMS, PlannerConfig, replace
+from pih.planner_config import COST_TERMS, PlannerConfig, recorded_planner, replace
 from pih.scene_config import SceneConfig
 
 if TYPE_CHECKING:
@@ -348,7 +348,7 @@ class RecordedRun:
             pd.read_parquet(path),
             record,
             recorded_config(SceneConfig, config, "scene"),
-            recorded_config(PlannerConfig, config, "planner"),
+            recorded_planner(config),
         )
 
     def redeployment_config(self, start_std_m: float) -> PlannerConfig:

@@ -59,7 +59,7 @@ class Run:
 
 def planning_names(config: Mapping[str, Any]) -> list[str]:
     """The planning runs' directory names, as ``workflow/rules/common.smk`` makes them
-    (``start_x_m~-0.035_method~bilevel_rule~explored_argmin_seed~0``)."""
+    (``start_x_m~-0.035_goal~explored_argmin_seed~0``)."""
     import pandas as pd
     from snakemake.utils import Paramspace
 

@@ -36,14 +36,15 @@ from pih.config import (
     markdown_type,
     to_mapping,
 )
-from pih.planner_config import PlannerConfig, replace
+from pih.planner_config import ONE_LEVEL, PlannerConfig, replace
 from pih.provenance import canonical_json
 from pih.scene_config import SceneConfig
 from pih.validation_config import ValidationConfig, validation_scene_config
 
-METHOD_KEY = "planner.method"
+GOAL_KEY = "planner.goal"
+"""The sweep key of the method: the DMP's goal (one-level's sensed hole, or an outer rule)."""
 OUTER_PREFIX = "planner.outer."
-"""Sweep keys under this prefix configure bilevel's outer level; one-level runs ignore them."""
+"""Sweep keys under this prefix configure bilevel's outer rules; one-level runs ignore them."""
 
 
 DEPLOY_KEYS = ("planner.deploy_policy", "planner.deploy_start_std_m")
@@ -66,9 +67,20 @@ def is_method_key(path: str) -> bool:
     """Whether a sweep key selects the method (the method, its outer level, or a named variant)
     rather than the situation (start, seed, noise, scene): runs differing only in such keys
     share their random draws (common random numbers), so their comparison is paired."""
-    return path in (METHOD_KEY, *DEPLOY_KEYS, *TRAINING_KEYS, VARIANT_KEY) or path.startswith(
+    return path in (GOAL_KEY, *DEPLOY_KEYS, *TRAINING_KEYS, VARIANT_KEY) or path.startswith(
         OUTER_PREFIX
     )
+
+
+def upgraded_point(point: Mapping[str, Any]) -> dict[str, Any]:
+    """A recorded sweep point in today's keys: points from before ``planner.goal`` name the
+    method with ``planner.method`` (one_level, bilevel) and ``planner.outer.rule``."""
+    point = dict(point)
+    if "planner.method" in point:
+        method = point.pop("planner.method")
+        rule = point.pop("planner.outer.rule", "explored_argmin")
+        point[GOAL_KEY] = ONE_LEVEL if method == "one_level" else rule
+    return point
 
 
 def seed_key(point: Mapping[str, Any]) -> str:
@@ -86,12 +98,12 @@ plan a study that large before any job runs (10,000 points: about 3 min and 1 GB
 def sweep_points(
     sweep: Mapping[str, list[Any]],
     variants: Mapping[str, Mapping[str, Any]] | None = None,
-    method: str = "bilevel",
+    goal: str = "explored_argmin",
     max_points: int = MAX_SWEEP_POINTS,
 ) -> list[dict[str, Any]]:
     """The planning runs of a sweep: the Cartesian product of its levels, except that one-level
-    runs (by their level of ``planner.method``, their variant's, or else ``method``, the config's)
-    that differ only in settings of bilevel's outer level (``planner.outer.*`` keys, or variants
+    runs (by their level of ``planner.goal``, their variant's, or else ``goal``, the config's)
+    that differ only in settings of bilevel's outer rules (``planner.outer.*`` keys, or variants
     that change only those) are made once. Duplicate levels, unknown variants, keys whose
     directory names would collide and a product of more than ``max_points`` points (counted
     before any is built) are errors."""
@@ -130,7 +142,7 @@ def sweep_points(
     for levels in itertools.product(*sweep.values()):
         point = dict(zip(sweep, (plain(v) for v in levels)))
         settings = {**variants.get(point.get(VARIANT_KEY), {}), **point}
-        if settings.get(METHOD_KEY, method) == "one_level":
+        if settings.get(GOAL_KEY, goal) == ONE_LEVEL:
             key = canonical_json(
                 {
                     k: v
@@ -625,7 +637,7 @@ def study_points(config: Mapping[str, Any]) -> list[dict[str, Any]]:
     return sweep_points(
         config["sweep"],
         variants,
-        config["planner"]["method"],
+        config["planner"]["goal"],
         max_points=config.get("max_sweep_points", MAX_SWEEP_POINTS),
     )
 
