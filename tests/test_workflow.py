@@ -136,7 +136,7 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
     work = copy_workflow(tmp_path)
     # Only a sweep: the default's figure point (start and seed) is not one of its points, so
     # Fig. 8 falls back to the first point, and says so.
-    own = {"sweep": {"planner.method": ["one_level", "bilevel"]}}
+    own = {"sweep": {"planner.goal": ["sensed_hole", "deepest_explored"]}}
     result = snakemake(work, "-n", config=own)
     jobs = planned_jobs(result)
     assert jobs["plan"] == 2  # not 2 x the default's starts and seeds
@@ -148,9 +148,9 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
     full = planned_jobs(snakemake(work, "-n", "--configfile", "config/full.yaml"))
     assert full["plan"] == 11 * 3 * 5
     ablations = planned_jobs(snakemake(work, "-n", "--configfile", "config/ablations.yaml"))
-    # 3 starts x 2 seeds x (9 bilevel variants + 6 one-level: the variants that differ from
-    # another only in the outer level (ours, sensed_tilt, ours_high_start) are skipped)
-    assert ablations["plan"] == 3 * 2 * (9 + 6)
+    # 3 starts x (7 variants x 2 outer rules + 6 one-level: sensed_tilt, which changes only the
+    # outer rules' settings, is skipped for one-level)
+    assert ablations["plan"] == 3 * (7 * 2 + 6)
     start_error = planned_jobs(snakemake(work, "-n", "--configfile", "config/start_error.yaml"))
     assert start_error["plan"] == 4 * 3 * 2
 
@@ -166,7 +166,7 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
             lambda c: c["planner"]["sensing"].update(hole_std=[0.005, 0.0, 0.1]),
             "planner.sensing.hole_std",
         ),
-        (lambda c: c["planner"].update(method="two_level"), "two_level"),
+        (lambda c: c["planner"].update(goal="two_level"), "two_level"),
         (lambda c: c["sweep"].update({"planner.no_such_key": [1, 2]}), "planner.no_such_key"),
         (lambda c: c["scene"]["spring"].pop("damping_ratio"), "damping_ratio"),
         (lambda c: c["sweep"].update({"planner.seed": [0, 0]}), "sweep.planner.seed: repeated"),
@@ -175,7 +175,7 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
             "both end in 'seed'",
         ),
         (lambda c: c["planner"].update(deploy_trials=0), "planner.deploy_trials"),
-        (lambda c: c["planner"]["outer"].update(rule="newton"), "newton"),
+        (lambda c: c["planner"]["outer"].update(goal_tilt="newton"), "newton"),
         (lambda c: c["sweep"].update(variant=["undefined"]), "sweep.variant"),
         (
             lambda c: c["validation"]["variants"].update(soft={"material.no_such_key": 1}),
@@ -227,7 +227,7 @@ def test_smoke_study_outputs_carry_provenance(smoke_run):
     assert set(record["sweep_point"]) == set(SMOKE["sweep"])
     assert record["seeds"]["planner.seed"] == record["sweep_point"]["planner.seed"]
     assert {"noise", "exploration", "deployment"} <= set(record["seeds"])
-    assert record["seed_key"] and "planner.method" not in record["seed_key"]
+    assert record["seed_key"] and "planner.goal" not in record["seed_key"]
     # The planner's provenance records the scene it ran on: the smoke config's.
     solver = SMOKE["scene"]["solver"]["discrete_contact_approximation"]
     assert record["simulator"]["discrete_contact_approximation"] == solver == "lagged"
@@ -272,12 +272,14 @@ def test_smoke_study_outputs_carry_provenance(smoke_run):
     }
     paired = pd.read_parquet(results / "planning" / "summary" / "paired.parquet")
     # 3 method pairs at 2 starts: over the runs' own deployments, then per start std (the
-    # runs' own, 0.5 mm, and their redeployments at 1 mm)
-    assert paired["dimension"].tolist() == ["all"] * 3 + ["start_std_m"] * 6
+    # runs' own, 0.5 mm, and their redeployments at 1 mm), then under the model error
+    assert paired["dimension"].tolist() == ["all"] * 3 + ["start_std_m"] * 6 + ["model_error"] * 3
     assert (paired["pairs"] == 2).all()
     robustness = pd.read_parquet(results / "planning" / "summary" / "robustness.parquet")
-    assert robustness["start_std_m"].tolist() == [0.0005, 0.001] * 3
+    assert robustness["start_std_m"].tolist() == [0.0005, 0.001] * 3 + [0.001] * 3
+    assert robustness["model_error"].tolist() == ["none"] * 6 + ["friction_0_5"] * 3
     assert (robustness["runs"] == 2).all()
+    assert "friction_0_5" in summary  # deployed under model error, beside the same without
     assert "| one_level |" in summary  # the pairs against one-level
     assert (results / "planning" / "summary" / "fig_deploy_success.png").stat().st_size > 10_000
     bands = pd.read_parquet(results / "planning" / "summary" / "cost_bands.parquet")
