@@ -84,10 +84,10 @@ def test_default_config_dry_run_lists_the_full_study(tmp_path):
     jobs = planned_jobs(snakemake(work, "-n"))
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     n_points = math.prod(len(levels) for levels in config["sweep"].values())
-    # Four of the paper's 11 starts, one seed; one-level runs are made once per (start, seed),
-    # not once per outer rule: 12 runs, each redeployed once per robustness level.
-    assert n_points == 4 * 2 * 2 * 1
-    assert jobs["plan"] == 4 * (1 + 2)
+    # Four of the paper's 11 starts x 3 goals, one seed: 12 runs, each redeployed once per
+    # robustness level.
+    assert n_points == 4 * 3 * 1
+    assert jobs["plan"] == 4 * 3
     assert jobs["redeploy"] == jobs["plan"] * len(config["robustness"]["start_std_m"])
     assert jobs["validation_run"] == 4 * len(config["validation"]["variants"]) == 12
     assert jobs["whitney_curve"] == 4
