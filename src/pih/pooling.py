@@ -17,7 +17,7 @@ from typing import Any
 
 import pandas as pd
 
-from pih.aggregate import run_tables, split_keys, variant
+from pih.aggregate import NO_MODEL_ERROR, run_tables, split_keys, variant
 from pih.config import ConfigError, recorded_config, to_mapping
 from pih.outputs import read_provenance
 from pih.planner_config import ONE_LEVEL, OuterConfig, method_label, recorded_planner, replace
@@ -29,7 +29,7 @@ from pih.scene_config import SceneConfig
 from pih.study_config import GOAL_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key, upgraded_point
 
 DEPLOY_STD_KEY = "planner.deploy_start_std_m"
-REDEPLOY_PATTERN = "redeploy_start_std_m~*.parquet"
+REDEPLOY_PATTERNS = ("redeploy_start_std_m~*.parquet", "redeploy_model_error~*.parquet")
 LABEL_KEYS = (GOAL_KEY,)
 """Keys the method label (:func:`pih.aggregate.variant`) shows, so runs may differ in them."""
 
@@ -117,14 +117,14 @@ def _flat(mapping: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def find_outputs(paths: Iterable[str | Path]) -> tuple[list[Path], list[Path]]:
-    """The planning runs (``rollouts.parquet``) and the ``redeploy`` rule's files under each
+    """The planning runs (``rollouts.parquet``) and the redeployment rules' files under each
     directory; a file given itself is a run (``rollouts.parquet``) or a redeployment file (the
     rule's, or ``pih redeploy --output``'s)."""
     runs, redeployments = [], []
     for path in map(Path, paths):
         if path.is_dir():
             runs += sorted(path.rglob("rollouts.parquet"))
-            redeployments += sorted(path.rglob(REDEPLOY_PATTERN))
+            redeployments += sorted(f for p in REDEPLOY_PATTERNS for f in path.rglob(p))
         elif path.name == "rollouts.parquet":
             runs.append(path)
         elif path.is_file():
@@ -191,6 +191,7 @@ def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
     for run in records if redeploy_files else []:
         by_hash.setdefault(run.sha256, []).append(run)
     for path in redeploy_files:
+        error = (read_provenance(path).get("model_error") or {}).get("name", NO_MODEL_ERROR)
         for source, redeployed_std, rate in _redeployments(path):
             run = _redeployed_run(by_hash.get(source[1], []), Path(source[0])) or _outside_run(
                 path, *source
@@ -198,12 +199,16 @@ def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
             if run.training not in headline:
                 raise ConfigError(f"{path}: redeploys {run.path}, not one of the pooled trainings")
             lead = headline[run.training]
-            deployments.append(_deployment(lead, keys, name[run.training], redeployed_std, rate))
+            deployments.append(
+                _deployment(lead, keys, name[run.training], redeployed_std, rate, error)
+            )
             sources.append(_source(path, name[run.training], redeployed_std, "redeployment"))
     deployments = pd.concat(deployments, ignore_index=True)
     # A training at the same std more than once (a redeployment at a recorded std) counts once:
     # deployment is deterministic given the training and the std.
-    deployments = deployments.drop_duplicates(["run", "start_std_m"], ignore_index=True)
+    deployments = deployments.drop_duplicates(
+        ["run", "start_std_m", "model_error"], ignore_index=True
+    )
     return PooledRuns(keys, runs, summaries, deployments, pd.DataFrame(sources))
 
 
@@ -329,13 +334,19 @@ def _deploy_rate(rollouts: pd.DataFrame) -> float:
 
 
 def _deployment(
-    run: RunRecord, keys: list[str], name: str, std: float, rate: float
+    run: RunRecord,
+    keys: list[str],
+    name: str,
+    std: float,
+    rate: float,
+    model_error: str = NO_MODEL_ERROR,
 ) -> pd.DataFrame:
     row = {
         "method": run.method,
         "run": name,
         **{key: str(run.level(key)) for key in split_keys(keys)},
         "start_std_m": std,
+        "model_error": model_error,
         "deploy_success_rate": rate,
     }
     return pd.DataFrame([row])

@@ -26,7 +26,7 @@ with stop_on_config_error():
     )
     validate(config, "../schemas/config.schema.json")
     # Sweep: each key a dotted config path, each value its levels; a run's directory is named
-    # by the last path components and levels ("start_x_m~-0.035_method~bilevel_seed~0"). At
+    # by the last path components and levels ("start_x_m~-0.035_goal~deepest_explored_seed~0"). At
     # most max_sweep_points (default 10,000), counted before any point is built.
     POINTS = study_points(config)
     check_study(config, POINTS)
