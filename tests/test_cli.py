@@ -116,7 +116,9 @@ def test_plot_draws_one_planning_run(tmp_path, capsys, planning_run):
     # Under other physics (--set) the replay is the same motion at another step: it runs, says
     # whether it ends elsewhere, and is no error.
     setting = "scene.solver.time_step_s=0.001"  # the run was recorded at 2 ms
-    assert main(["replay", str(tmp_path), "phase == 'deploy' and rollout == 0", "--set", setting]) == 0
+    assert (
+        main(["replay", str(tmp_path), "phase == 'deploy' and rollout == 0", "--set", setting]) == 0
+    )
     fields = dict(item.split("=") for item in capsys.readouterr().out.splitlines()[-1].split())
     assert fields["status"] == "ok" and fields["same"] == "0"
     for bad, key in [
@@ -184,7 +186,7 @@ def test_redeploy_deploys_the_policies_again_from_offset_starts(tmp_path, capsys
     for column in ("sensed_hole_x_m", "target_x_m", "weights"):
         assert offset[column].equals(again[column])
     assert not offset["start_x_m"].equals(again["start_x_m"])
-    assert read_provenance(output)["config"] == {"deploy_start_std_m": 0.001}
+    assert read_provenance(output)["config"] == {"planner": {"deploy_start_std_m": 0.001}}
 
     assert main(["redeploy", str(tmp_path), "--start-std-m", "-1"]) == 1
     assert "--start-std-m" in capsys.readouterr().err
@@ -343,7 +345,9 @@ def test_aggregate_pools_ablation_variants_only_where_their_overrides_differ(
     assert "planner.iterations: 2 in" in capsys.readouterr().err
     # A variant overriding the budget may differ in it.
     fewer = ("fewer", {"planner.iterations": 3})
-    write_study_run(tmp_path, planning_run, "d", goal="explored_argmin", variant=fewer, iterations=3)
+    write_study_run(
+        tmp_path, planning_run, "d", goal="explored_argmin", variant=fewer, iterations=3
+    )
     assert pooled("a", "d") == 0
     capsys.readouterr()
 

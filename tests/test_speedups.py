@@ -62,4 +62,6 @@ def test_unsampled_ports_and_allocator_give_the_same_trajectory():
 
 
 def test_this_process_reports_its_allocator():
-    assert allocator() in {"glibc", "unknown"} or allocator().startswith(("libtcmalloc", "libjemalloc"))
+    assert allocator() in {"glibc", "unknown"} or allocator().startswith(
+        ("libtcmalloc", "libjemalloc")
+    )

@@ -96,7 +96,12 @@ def _robustness() -> pd.DataFrame:
     """Perturbed redeployment (1 mm) per method, and a 3 mm level the headline does not use."""
     return pd.DataFrame(
         {
-            "method": ["bilevel/deepest_explored", "bilevel/explored_argmin", "one_level", "one_level"],
+            "method": [
+                "bilevel/deepest_explored",
+                "bilevel/explored_argmin",
+                "one_level",
+                "one_level",
+            ],
             "start_std_m": [0.001, 0.001, 0.001, 0.003],
             "runs": [10, 10, 10, 10],
             "deploy_success_rate": [0.8, 0.55, 0.25, 0.1],
@@ -190,7 +195,14 @@ def test_summary_names_the_code_version_and_links_the_tables():
     assert "`config/config.yaml`, `config/smoke.yaml`; budget 3 iterations × 4 rollouts" in text
     assert "6 planning runs" in text and "Not the default study" in text
     assert "Not the default study" not in summary_markdown(
-        _comparison(), variants, _success(), paired, _robustness(), "abc123", {}, study | {"default": True}
+        _comparison(),
+        variants,
+        _success(),
+        paired,
+        _robustness(),
+        "abc123",
+        {},
+        study | {"default": True},
     )
     assert "- [success](planning/s.md)" in text
     assert text.index("Would the learned policy insert") < text.index("Whitney")

@@ -322,7 +322,9 @@ def test_rerun_is_a_no_op_and_a_forced_rerun_gives_the_same_data(smoke_run):
     jobs = planned_jobs(snakemake(smoke_run, "-n", config=more))
     assert jobs["validation_run"] == len(SMOKE["validation"]["offsets_m"])
     assert jobs["plan"] == 1 + 2  # one-level and two bilevel rules at the new start
-    target = min((smoke_run / "results" / "planning").glob("*goal~deepest_explored*/rollouts.parquet"))
+    target = min(
+        (smoke_run / "results" / "planning").glob("*goal~deepest_explored*/rollouts.parquet")
+    )
     before, before_record = pd.read_parquet(target), read_provenance(target)
     written = target.stat().st_mtime_ns
     snakemake(smoke_run, "--forcerun", "plan", "--until", "plan", config=SMOKE)

@@ -609,7 +609,7 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
     if output is not None:
         provenance = provenance_record(
             "redeploy",
-            config={"deploy_start_std_m": start_std_m},
+            config={"planner": {"deploy_start_std_m": start_std_m}},  # as the rule's files
             inputs=[run / "rollouts.parquet" for run in runs],
         )
         columns = {**ROLLOUT_COLUMNS, "run": ("", "the planning run's directory name")}

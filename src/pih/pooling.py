@@ -372,13 +372,14 @@ def _redeployments(path: Path) -> list[tuple[tuple[str, str], float, float]]:
     record = _provenance(path, "redeploy")
     rollouts = pd.read_parquet(path)
     inputs = list(record["inputs"].items())
+    # Files of pih redeploy before 0.4.0 recorded the std at the config's top level.
+    config = record["config"].get("planner", record["config"])
+    std = config["deploy_start_std_m"]
     if "run" not in rollouts:
-        std = record["config"]["planner"]["deploy_start_std_m"]
         sources = [item for item in inputs if Path(item[0]).name == "rollouts.parquet"]
         if len(sources) != 1:
             raise ConfigError(f"{path}: expected one redeployed run among its inputs {inputs}")
         return [(sources[0], std, _deploy_rate(rollouts))]
-    std = record["config"]["deploy_start_std_m"]
     found = []
     for run, part in rollouts.groupby("run"):
         sources = [item for item in inputs if Path(item[0]).parent.name == run]

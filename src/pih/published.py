@@ -244,9 +244,10 @@ README_BEGIN, README_END = "<!-- PUBLISHED-RESULTS -->", "<!-- /PUBLISHED-RESULT
 
 def results_block(published: Path) -> str:
     """README's results table, generated from the published study's summary tables: the
-    headline per method (:func:`pih.summary.planning_rows`) and its paired comparisons."""
+    headline per method (:func:`pih.summary.planning_rows`) and its paired comparisons from
+    offset starts (those from the training start are in ``summary.md``)."""
     from pih.outputs import markdown_table
-    from pih.summary import paired_rows, perturbed_pairs, planning_rows
+    from pih.summary import perturbed_pairs, planning_rows
 
     tables = published / "planning" / "summary"
     success, robustness, paired = (
@@ -264,8 +265,6 @@ def results_block(published: Path) -> str:
             markdown_table(planning_rows(success, robustness), "{:.3g}").strip(),
             "Paired from offset starts (sign test over the untied pairs):",
             markdown_table(perturbed_pairs(paired, robustness), "{:.3g}").strip(),
-            "Paired from the training start:",
-            markdown_table(paired_rows(paired), "{:.3g}").strip(),
             README_END,
         ]
     )
