@@ -199,3 +199,43 @@ def test_readme_reports_only_published_numbers():
     else:
         assert readme[start:end] == f"{README_BEGIN}\n{README_END}"
         assert "No published results yet" in readme
+
+
+@pytest.mark.skipif(
+    not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study in this checkout"
+)
+def test_readme_prose_quotes_the_published_numbers():
+    """The sentences under README's generated table quote the published tables: trials that
+    inserted from offset starts, pairs won, the interval's bound and the goal iterations."""
+    summary = ROOT / PUBLISHED_DIR / "planning" / "summary"
+    robustness = pd.read_parquet(summary / "robustness.parquet")
+    success = pd.read_parquet(summary / "success.parquet").set_index("method")
+    paired = pd.read_parquet(summary / "paired.parquet")
+    record = pd.read_parquet(next((ROOT / PUBLISHED_DIR / "planning").glob("*/rollouts.parquet")))
+    trials = int((record["phase"] == "deploy").sum())
+    offset = robustness[(robustness["start_std_m"] > 0) & (robustness["model_error"] == "none")]
+    inserted = {
+        row.method: round(row.deploy_success_rate * row.runs * trials)
+        for row in offset.itertuples()
+    }
+    runs = int(offset["runs"].iloc[0])
+    prose = " ".join(
+        (ROOT / "README.md").read_text().split("<!-- /PUBLISHED-RESULTS -->")[1].split()
+    )
+    total = runs * trials
+    assert inserted["bilevel/deepest_explored"] == inserted["bilevel/explored_argmin"] == total
+    assert f"inserted in all {total} deployment trials" in prose
+    assert f"one-level in {inserted['one_level']} of {total}" in prose
+    against_one_level = paired[
+        (paired["versus"] == "one_level")
+        & (paired["dimension"] == "start_std_m")
+        & (paired["level"] != "0.0")
+    ]
+    assert (against_one_level["better"] == runs).all()
+    assert f"beat one-level at all {runs} starts" in prose
+    assert f"over {runs} pairs is {against_one_level['sign_test_p'].min():.3g}" in prose
+    low = offset.set_index("method").loc["bilevel/deepest_explored", "deploy_ci_low"]
+    assert f"lower bound of {low:.2f}" in prose
+    goal = success[success["dimension"] == "all"]["median_goal_iteration"]
+    ours, theirs = goal["bilevel/deepest_explored"], goal["bilevel/explored_argmin"]
+    assert f"median iteration {ours:g} against {theirs:g}" in prose
