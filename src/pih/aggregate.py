@@ -263,6 +263,11 @@ NO_MODEL_ERROR = "none"
 """``model_error`` of a deployment on the scene the policy was trained on."""
 
 
+def model_error_name(record: Mapping[str, Any]) -> str:
+    """The model error a redeployment file's provenance ``record`` names, or "none"."""
+    return (record.get("model_error") or {}).get("name", NO_MODEL_ERROR)
+
+
 def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -> pd.DataFrame:
     """One row per redeployment of a run (``pih redeploy``, the ``redeploy`` and
     ``redeploy_model_error`` rules): its method, run and sweep levels as :func:`run_tables` tags
@@ -280,7 +285,7 @@ def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -
                 "run": path.parent.name,
                 **{key: str(point[key]) for key in split_keys(sweep_keys)},
                 "start_std_m": planner["deploy_start_std_m"],
-                "model_error": (record.get("model_error") or {}).get("name", NO_MODEL_ERROR),
+                "model_error": model_error_name(record),
                 "deploy_success_rate": float(deploy["success"].mean()),
             }
         )

@@ -17,7 +17,7 @@ from typing import Any
 
 import pandas as pd
 
-from pih.aggregate import NO_MODEL_ERROR, run_tables, split_keys, variant
+from pih.aggregate import NO_MODEL_ERROR, model_error_name, run_tables, split_keys, variant
 from pih.config import ConfigError, recorded_config, to_mapping
 from pih.outputs import read_provenance
 from pih.planner_config import ONE_LEVEL, OuterConfig, method_label, recorded_planner, replace
@@ -191,8 +191,7 @@ def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
     for run in records if redeploy_files else []:
         by_hash.setdefault(run.sha256, []).append(run)
     for path in redeploy_files:
-        error = (read_provenance(path).get("model_error") or {}).get("name", NO_MODEL_ERROR)
-        for source, redeployed_std, rate in _redeployments(path):
+        for source, redeployed_std, error, rate in _redeployments(path):
             run = _redeployed_run(by_hash.get(source[1], []), Path(source[0])) or _outside_run(
                 path, *source
             )
@@ -365,27 +364,27 @@ def _redeployed_run(candidates: list[RunRecord], source: Path) -> RunRecord | No
     return (named or candidates or [None])[0]
 
 
-def _redeployments(path: Path) -> list[tuple[tuple[str, str], float, float]]:
-    """((redeployed run's recorded path, its data's sha256), start std, deployment success) per
-    run in a redeployment file: the ``redeploy`` rule's (one run) or ``pih redeploy
+def _redeployments(path: Path) -> list[tuple[tuple[str, str], float, str, float]]:
+    """((redeployed run's recorded path, its data's sha256), start std, model error, deployment
+    success) per run in a redeployment file: the ``redeploy`` rule's (one run) or ``pih redeploy
     --output``'s (several, a ``run`` column naming their directories)."""
     record = _provenance(path, "redeploy")
     rollouts = pd.read_parquet(path)
     inputs = list(record["inputs"].items())
     # Files of pih redeploy before 0.4.0 recorded the std at the config's top level.
     config = record["config"].get("planner", record["config"])
-    std = config["deploy_start_std_m"]
+    std, error = config["deploy_start_std_m"], model_error_name(record)
     if "run" not in rollouts:
         sources = [item for item in inputs if Path(item[0]).name == "rollouts.parquet"]
         if len(sources) != 1:
             raise ConfigError(f"{path}: expected one redeployed run among its inputs {inputs}")
-        return [(sources[0], std, _deploy_rate(rollouts))]
+        return [(sources[0], std, error, _deploy_rate(rollouts))]
     found = []
     for run, part in rollouts.groupby("run"):
         sources = [item for item in inputs if Path(item[0]).parent.name == run]
         if len(sources) != 1:
             raise ConfigError(f"{path}: rows of run {run!r} match {len(sources)} of its inputs")
-        found.append((sources[0], std, _deploy_rate(part)))
+        found.append((sources[0], std, error, _deploy_rate(part)))
     return found
 
 
