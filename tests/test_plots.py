@@ -138,21 +138,51 @@ def _success_rows():
     return pd.DataFrame(rows)
 
 
+def _robustness_rows():
+    """Deployments from starts 1 mm off per method and goal_tilt level, on the training scene
+    and under one model error (which the figure leaves out)."""
+    rows = []
+    for error, rate in (("none", 0.9), ("friction_0_5", 0.0)):
+        for level in ("explored", "sensed"):
+            rows.append(
+                {
+                    "method": "bilevel/explored_argmin",
+                    "planner.outer.goal_tilt": level,
+                    "start_std_m": 0.001,
+                    "model_error": error,
+                    "runs": 2,
+                    "deploy_success_rate": rate,
+                    "deploy_ci_low": rate / 2,
+                    "deploy_ci_high": 1.0,
+                }
+            )
+    return pd.DataFrame(rows)
+
+
 def test_deploy_success_rows_name_their_method_and_methods_differ_by_marker():
-    fig = plots.deploy_success_figure(_success_rows())
+    fig = plots.deploy_success_figure(_success_rows(), _robustness_rows())
     ax = fig.axes[0]
     labels = [t.get_text() for t in ax.get_yticklabels()]
+    # A compared dimension's levels do not pool: no "all runs" group beside them.
     assert labels == [
-        "all runs",
-        "bilevel/explored_argmin (n = 2 runs)",
-        "one_level (n = 2 runs)",
         "goal_tilt = explored",
         "bilevel/explored_argmin (n = 2 runs)",
         "one_level (n = 2 runs)",
     ]
     handles, names = ax.get_legend_handles_labels()
-    assert sorted(names) == ["bilevel/explored_argmin", "one_level"]  # once each
-    assert len({h.lines[0].get_marker() for h in handles}) == 2
+    assert sorted(names) == [
+        "bilevel/explored_argmin, from starts 1 mm off",
+        "bilevel/explored_argmin, from the training start",
+        "one_level, from the training start",  # one-level was not redeployed here
+    ]
+    markers = {name: h.lines[0].get_marker() for h, name in zip(handles, names, strict=True)}
+    assert (
+        markers["one_level, from the training start"]
+        != markers["bilevel/explored_argmin, from the training start"]
+    )
+    # The headline is filled, at the rate of the training scene (not the model error's).
+    offset = handles[names.index("bilevel/explored_argmin, from starts 1 mm off")].lines[0]
+    assert offset.get_markerfacecolor() != "white" and offset.get_xdata()[0] == 0.9
     legend = ax.get_legend()
     # The legend sits beside the axes, at its top, not below the figure.
     fig.draw_without_rendering()

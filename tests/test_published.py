@@ -8,7 +8,17 @@ import pandas as pd
 import pytest
 
 from pih.__main__ import main
-from pih.published import PUBLISHED_DIR, compare, point_key, stale_reasons
+from pih.published import (
+    PUBLISHED_DIR,
+    PUBLISHED_STUDIES,
+    README_BEGIN,
+    README_END,
+    compare,
+    expected_runs,
+    point_key,
+    results_block,
+    stale_reasons,
+)
 
 
 def tree(root):
@@ -40,12 +50,21 @@ def tree(root):
             "sign_test_p": [0.0039],
         }
     ).to_parquet(summary / "paired.parquet")
-    for run in ("start~-0.04_seed~0", "start~-0.03_seed~0"):
-        (root / "planning" / run).mkdir()
-        pd.DataFrame({"phase": ["deploy"], "success": [True]}).to_parquet(
-            root / "planning" / run / "rollouts.parquet"
-        )
+    for start in (-0.04, -0.03):
+        run_file(root / "planning" / f"start~{start}_seed~0" / "rollouts.parquet", start)
     return root
+
+
+def run_file(path, start, success=True, point=None, **columns):
+    """A run's ``rollouts.parquet`` with the provenance that names its sweep point."""
+    from pih.outputs import write_table
+    from pih.provenance import record
+
+    point = point or {"planner.start_x_m": start, "planner.goal": "deepest_explored"}
+    rows = pd.DataFrame({"phase": ["deploy"], "success": [success], **columns})
+    units = {c: ("1", c) for c in rows.columns}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_table(rows, path, record("plan", point=point), units)
 
 
 def test_identical_trees_reproduce(tmp_path, capsys):
@@ -64,14 +83,13 @@ def test_a_changed_number_or_run_is_named(tmp_path, capsys):
     shutil.copytree(old, new)
     robustness = new / "planning" / "summary" / "robustness.parquet"
     pd.read_parquet(robustness).assign(deploy_success_rate=[0.7, 0.2]).to_parquet(robustness)
-    run = new / "planning" / "start~-0.03_seed~0" / "rollouts.parquet"
-    pd.DataFrame({"phase": ["deploy"], "success": [False]}).to_parquet(run)
+    run_file(new / "planning" / "start~-0.03_seed~0" / "rollouts.parquet", -0.03, success=False)
     (new / "planning" / "start~-0.04_seed~0" / "rollouts.parquet").unlink()
     assert main(["compare", str(old), str(new)]) == 1
     out = capsys.readouterr().out.splitlines()
     assert (
         "planning/summary/robustness.parquet: method=bilevel/deepest_explored, "
-        "start_std_m=0.001: deploy_success_rate: 0.8 -> 0.7" in out
+        "start_std_m=0.001, model_error=none: deploy_success_rate: 0.8 -> 0.7" in out
     )
     assert "planning/start~-0.03_seed~0/rollouts.parquet: data: one table -> another" in out
     assert "planning/start~-0.04_seed~0/rollouts.parquet: run file: present -> missing" in out
@@ -84,6 +102,33 @@ def test_a_changed_number_or_run_is_named(tmp_path, capsys):
     assert all("robustness" not in d.where for d in differences)
 
 
+def test_a_tree_of_an_older_version_reproduces_on_what_both_record(tmp_path, capsys):
+    """0.3.0 named run directories ``method~…_rule~…`` and its points ``planner.method`` and
+    ``planner.outer.rule``; its robustness table had no ``model_error`` key and its rollouts no
+    ``simulated_hole_*`` columns. Compared with a 0.4.0 tree, the same runs are the same runs."""
+    new = tree(tmp_path / "new")
+    for start in (-0.04, -0.03):
+        path = new / "planning" / f"start~{start}_seed~0" / "rollouts.parquet"
+        run_file(path, start, simulated_hole_x_m=[0.0])
+    robustness = new / "planning" / "summary" / "robustness.parquet"
+    pd.read_parquet(robustness).assign(model_error="none").to_parquet(robustness)
+    old = tree(tmp_path / "old")
+    shutil.rmtree(old / "planning" / "start~-0.04_seed~0")
+    shutil.rmtree(old / "planning" / "start~-0.03_seed~0")
+    for start in (-0.04, -0.03):
+        point = {
+            "planner.start_x_m": start,
+            "planner.method": "bilevel",
+            "planner.outer.rule": "deepest_explored",
+        }
+        path = old / "planning" / f"start~{start}_method~bilevel_rule~x" / "rollouts.parquet"
+        run_file(path, start, point=point, success=start < -0.035)
+    assert main(["compare", str(old), str(new)]) == 1
+    out = capsys.readouterr().out.splitlines()
+    # Only the run whose shared columns differ (success at -0.03) is named, by its new path.
+    assert out[:-1] == ["planning/start~-0.03_seed~0/rollouts.parquet: data: one table -> another"]
+
+
 def test_a_tree_that_is_not_one_is_one_line(tmp_path, capsys):
     assert main(["compare", str(tmp_path), str(tmp_path / "nope")]) == 1
     err = capsys.readouterr().err.strip().splitlines()
@@ -91,15 +136,6 @@ def test_a_tree_that_is_not_one_is_one_line(tmp_path, capsys):
 
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def expected_runs(config_files):
-    """What the repository's config would run: sweep point -> resolved scene and planner."""
-    from pih.study_config import load_config, resolved_sections, sweep_points
-
-    config = load_config(config_files)
-    points = sweep_points(config["sweep"], config.get("variants"), config["planner"]["goal"])
-    return {point_key(p): resolved_sections(config, p) for p in points}
 
 
 def test_stale_published_runs_are_named(tmp_path):
@@ -137,12 +173,44 @@ def test_stale_published_runs_are_named(tmp_path):
     ]
 
 
-@pytest.mark.skipif(
-    not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study in this checkout"
-)
-def test_the_published_study_is_what_the_config_and_code_compute():
-    reasons = stale_reasons(ROOT / PUBLISHED_DIR, expected_runs([str(ROOT / "config/config.yaml")]))
-    assert reasons == [], "published/default is stale: " + "; ".join(reasons[:10])
+PUBLISHED = [s for s in PUBLISHED_STUDIES.values() if (ROOT / s.directory).is_dir()]
+
+
+@pytest.mark.parametrize("study", PUBLISHED, ids=lambda s: s.name)
+def test_the_published_study_is_what_the_config_and_code_compute(study):
+    config_files = tuple(str(ROOT / f) for f in study.config_files)
+    reasons = stale_reasons(ROOT / study.directory, expected_runs(config_files))
+    assert reasons == [], f"{study.directory} is stale: " + "; ".join(reasons[:10])
+
+
+def test_publish_refuses_a_tree_that_is_not_the_studys_run(tmp_path, capsys, monkeypatch):
+    """A results tree of another study (here: one run of a made-up sweep point) is refused in
+    one line before anything is copied; the published copy and README stay as they were."""
+    from pih.outputs import write_table
+    from pih.provenance import record
+
+    results = tmp_path / "results"
+    provenance = record("plan", point={"planner.seed": 7}, config={"scene": {}, "planner": {}})
+    path = results / "planning" / "seed~7" / "rollouts.parquet"
+    path.parent.mkdir(parents=True)
+    rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
+    write_table(rows, path, provenance, {"phase": ("", "phase"), "success": ("1", "inserted")})
+    shutil.copytree(ROOT / "config", tmp_path / "config")
+    (tmp_path / "published" / "default").mkdir(parents=True)
+    (tmp_path / "published" / "default" / "kept.md").write_text("before")
+    readme = f"# pih\n{README_BEGIN}\nold\n{README_END}\n"
+    (tmp_path / "README.md").write_text(readme)
+    monkeypatch.chdir(tmp_path)
+    assert main(["publish", str(results)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "is not a run of the default study" in err[0]
+    # The first reason, then a count: the default's 12 runs missing, this one not among them.
+    assert "is not published (and 12 more)" in err[0]
+    assert (tmp_path / "published" / "default" / "kept.md").read_text() == "before"
+    assert (tmp_path / "README.md").read_text() == readme
+    # A study whose README markers are missing is refused too, naming the marker.
+    assert main(["publish", str(results), "--study", "sim_to_real"]) == 1
+    assert "<!-- PUBLISHED-RESULTS sim_to_real -->" in capsys.readouterr().err
 
 
 def test_readme_results_are_generated_from_the_published_tables(tmp_path):
@@ -187,18 +255,21 @@ def test_readme_results_are_generated_from_the_published_tables(tmp_path):
     assert readme_with_results(updated, block) == updated
 
 
-def test_readme_reports_only_published_numbers():
-    """README's results block is exactly what the published tables generate; without a
-    published study it says so and holds no table."""
-    from pih.published import README_BEGIN, README_END, results_block
-
+@pytest.mark.parametrize("study", PUBLISHED_STUDIES.values(), ids=lambda s: s.name)
+def test_readme_reports_only_published_numbers(study):
+    """README's results for each published study are exactly what its tables generate; the
+    default's block without a published study says so and holds no table."""
+    begin, end_marker = study.markers
     readme = (ROOT / "README.md").read_text()
-    start, end = readme.index(README_BEGIN), readme.index(README_END) + len(README_END)
-    if (ROOT / PUBLISHED_DIR).is_dir():
-        assert readme[start:end] == results_block(ROOT / PUBLISHED_DIR)
-    else:
-        assert readme[start:end] == f"{README_BEGIN}\n{README_END}"
+    if (ROOT / study.directory).is_dir():
+        start, end = readme.index(begin), readme.index(end_marker) + len(end_marker)
+        assert readme[start:end] == results_block(ROOT / study.directory, study)
+    elif study.name == "default":
+        start, end = readme.index(begin), readme.index(end_marker) + len(end_marker)
+        assert readme[start:end] == f"{begin}\n{end_marker}"
         assert "No published results yet" in readme
+    else:
+        assert begin not in readme
 
 
 @pytest.mark.skipif(

@@ -265,3 +265,49 @@ def test_observation_noise_on_the_tip_reaches_the_outer_level_only_when_asked(ru
     )
     second = (rows["phase"] == "train") & (rows["iteration"] == 2)
     assert not np.array_equal(rows.loc[second, "target_x_m"], reference.loc[second, "target_x_m"])
+
+
+def test_offset_start_pairs_are_split_by_the_simulator_mode_and_lead_the_summary():
+    """From offset starts, one-level and bilevel are paired within each simulator mode (the
+    modes are different designs: their points do not pool), and the summary quotes those."""
+    from pih.aggregate import robustness_pairs, robustness_table
+    from pih.summary import perturbed_pairs
+
+    keys = ["planner.start_x_m", "planner.goal", "planner.simulated_hole"]
+    # (start, mode) -> (ours, one-level) from offset starts: ours wins on the true hole,
+    # loses once and ties once on the sensed one.
+    rates = {
+        ("-0.04", "true_hole"): (1.0, 0.1),
+        ("-0.03", "true_hole"): (0.9, 0.2),
+        ("-0.04", "sensed_per_run"): (0.1, 0.3),
+        ("-0.03", "sensed_per_run"): (0.2, 0.2),
+    }
+    rows = []
+    for (start, mode), pair in rates.items():
+        for method, rate in zip(("bilevel/deepest_explored", "one_level"), pair, strict=True):
+            common = {
+                "method": method,
+                "run": f"{start}_{mode}_{method}",
+                "planner.start_x_m": start,
+                "planner.simulated_hole": mode,
+            }
+            rows += [
+                {**common, "start_std_m": 0.0, "deploy_success_rate": 1.0},
+                {**common, "start_std_m": 0.001, "deploy_success_rate": rate},
+            ]
+    deployments = pd.DataFrame(rows)
+    pairs = robustness_pairs(deployments, keys).set_index(["dimension", "level"])
+    sensed = pairs.loc[("planner.simulated_hole", "sensed_per_run, starts 0.001 m off")]
+    true = pairs.loc[("planner.simulated_hole", "true_hole, starts 0.001 m off")]
+    assert (sensed["better"], sensed["worse"], sensed["tied"]) == (0, 1, 1)
+    assert (true["better"], true["worse"]) == (2, 0)
+    assert true["mean_difference"] == pytest.approx(0.8)
+    pooled = pairs.loc[("start_std_m", "0.001")]
+    assert pooled["pairs"] == 4 and pooled["better"] == 2
+    # No per-mode rows for the training start: those are the nominal pairs' (paired_table).
+    assert not any(level.startswith("true_hole, starts 0 ") for _, level in pairs.index)
+    quoted = perturbed_pairs(pairs.reset_index(), robustness_table(deployments, keys))
+    assert quoted[["dimension", "level", "better"]].values.tolist() == [
+        ["planner.simulated_hole", "sensed_per_run", 0],
+        ["planner.simulated_hole", "true_hole", 2],
+    ]

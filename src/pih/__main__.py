@@ -24,9 +24,10 @@
 - ``pih compare OLD NEW [--rtol R]``: which headline numbers (deployment success, paired
   comparisons, Table 2–3) and which planning runs' data differ between two result trees, e.g.
   ``pih compare published/default results`` after a fresh ``snakemake -j2``; exit 0 when none;
-- ``pih publish [RESULTS]``: copy a finished default study's outputs (data, tables, figures,
-  provenance; not the recordings) into ``published/default``, the files README's numbers come
-  from;
+- ``pih publish [RESULTS] [--study default|sim_to_real]``: copy a finished run of a published
+  study (data, tables, figures, provenance; not the recordings) into ``published/<study>``, the
+  files README's numbers come from, and regenerate README's results for it; refused when
+  RESULTS is not that study's run at this code;
 - ``pih status [DIR] [--configfile F ...]``: a study's progress, from the files in its working
   directory ``DIR`` (default ``.``): planning and validation runs done, running (with their
   iteration) and pending, and the time left (:mod:`pih.status`);
@@ -161,9 +162,15 @@ def main(argv: list[str] | None = None) -> int:
         "--rtol", type=float, default=1e-9, help="relative tolerance for numbers (default 1e-9)"
     )
     publish = commands.add_parser(
-        "publish", help="copy a finished default study into published/default (README's source)"
+        "publish", help="copy a finished study into published/STUDY (README's source)"
     )
     publish.add_argument("results", type=Path, nargs="?", default=Path("results"))
+    publish.add_argument(
+        "--study",
+        choices=["default", "sim_to_real"],
+        default="default",
+        help="which published study RESULTS is a run of (default: default)",
+    )
     watch = commands.add_parser(
         "status", help="a study's progress: runs done, running and pending, and the time left"
     )
@@ -195,23 +202,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "aggregate":
         return _aggregate(args.paths, args.output_dir, args.reference_variant)
     if args.command == "publish":
-        from pih.published import PUBLISHED_DIR, publish, readme_with_results, results_block
-
-        readme = Path("README.md")
-        if not readme.is_file():
-            print(
-                "pih publish: run it from the repository's root (no README.md here)",
-                file=sys.stderr,
-            )
-            return 1
-        try:
-            copied = publish(args.results)
-        except OSError as error:
-            print(f"pih publish: {_first_line(error)}", file=sys.stderr)
-            return 1
-        readme.write_text(readme_with_results(readme.read_text(), results_block(PUBLISHED_DIR)))
-        print(f"{PUBLISHED_DIR}: {copied} files from {args.results}; README.md's results table")
-        return 0
+        return _publish(args.results, args.study)
     if args.command == "compare":
         return _compare(args.old, args.new, args.rtol)
     if args.command == "schema":
@@ -541,6 +532,27 @@ def _replay(run: Path, query: str, output: Path | None, settings: list[str]) -> 
         )
     # Without --set a replay must end where the record says (exit 1 if not); with it, it may not.
     return 0 if settings or not differs else 1
+
+
+def _publish(results: Path, name: str) -> int:
+    from pih.published import PUBLISHED_STUDIES, publish, readme_with_results, results_block
+
+    study, readme = PUBLISHED_STUDIES[name], Path("README.md")
+    if not readme.is_file():
+        print("pih publish: run it from the repository's root (no README.md here)", file=sys.stderr)
+        return 1
+    if study.markers[0] not in readme.read_text():
+        print(f"pih publish: README.md has no {study.markers[0]} line", file=sys.stderr)
+        return 1
+    try:
+        copied = publish(results, study)
+    except (OSError, ValueError) as error:
+        print(f"pih publish: {_first_line(error)}", file=sys.stderr)
+        return 1
+    block = results_block(study.directory, study)
+    readme.write_text(readme_with_results(readme.read_text(), block, study))
+    print(f"{study.directory}: {copied} files from {results}; README.md's results for it")
+    return 0
 
 
 def _compare(old: Path, new: Path, rtol: float) -> int:

@@ -349,14 +349,43 @@ def robustness_table(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.Dat
     return table.iloc[order.argsort(kind="stable")].reset_index(drop=True)
 
 
+def headline_std(robustness: pd.DataFrame) -> float | None:
+    """The start std of the headline: the smallest σ > 0 the study redeployed at."""
+    stds = sorted(s for s in robustness["start_std_m"].unique() if s > 0)
+    return float(stds[0]) if stds else None
+
+
+def on_training_scene(robustness: pd.DataFrame) -> pd.DataFrame:
+    """The deployments on the scene the policies were trained on (no model error)."""
+    if "model_error" not in robustness:
+        return robustness
+    return robustness[robustness["model_error"] == NO_MODEL_ERROR]
+
+
+def offset_level(level: object, start_std_m: float) -> str:
+    """The ``level`` of a paired row over the deployments from starts offset by ``start_std_m``
+    at one level of a compared dimension (e.g. ``sensed_per_run, starts 0.001 m off``)."""
+    return f"{level}, starts {start_std_m:g} m off"
+
+
 def robustness_pairs(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
     """:func:`paired_table` per start std (dimension ``start_std_m``) on the training scene,
-    and per model error (dimension ``model_error``)."""
+    from offset starts per level of every compared dimension too (level :func:`offset_level`:
+    the modes of a sim-to-real study do not pool), and per model error (dimension
+    ``model_error``)."""
     frame = _with_model_error(deployments)
     exact = frame[frame["model_error"] == NO_MODEL_ERROR].drop_duplicates(["run", "start_std_m"])
-    exact = exact.assign(start_std_m=exact["start_std_m"].map(str))
-    paired = paired_table(exact, [*sweep_keys, "start_std_m"])
+    paired = paired_table(
+        exact.assign(start_std_m=exact["start_std_m"].map(str)), [*sweep_keys, "start_std_m"]
+    )
     parts = [paired[paired["dimension"] == "start_std_m"]]
+    compared = compared_keys(sweep_keys)
+    for std, part in exact[exact["start_std_m"] > 0].groupby("start_std_m"):
+        per_level = paired_table(part, sweep_keys)
+        per_level = per_level[per_level["dimension"].isin(compared)]
+        if len(per_level):
+            levels = [offset_level(v, std) for v in per_level["level"]]
+            parts.append(per_level.assign(level=levels))
     errors = frame[frame["model_error"] != NO_MODEL_ERROR].drop_duplicates(["run", "model_error"])
     for error, part in errors.groupby("model_error"):
         paired = paired_table(part, sweep_keys)
@@ -534,6 +563,7 @@ class PlanningTables:
     variant_pairs: pd.DataFrame
     paired: pd.DataFrame
     robustness: pd.DataFrame
+    robustness_pairs: pd.DataFrame
 
 
 def variant_pairs(summaries: pd.DataFrame, sweep_keys: list[str], reference: str) -> pd.DataFrame:
@@ -583,11 +613,8 @@ def planning_tables(
         if reference_variant is not None
         else pd.DataFrame(columns=list(PAIRED_COLUMNS))
     )
-    paired = [
-        paired_table(summaries, sweep_keys),
-        against_reference,
-        robustness_pairs(deployments, sweep_keys),
-    ]
+    redeployed = robustness_pairs(deployments, sweep_keys)
+    paired = [paired_table(summaries, sweep_keys), against_reference, redeployed]
     return PlanningTables(
         bands=cost_bands(runs, sweep_keys),
         success=success,
@@ -595,4 +622,5 @@ def planning_tables(
         variant_pairs=against_reference,
         paired=pd.concat([p for p in paired if not p.empty] or paired[:1], ignore_index=True),
         robustness=robustness_table(deployments, sweep_keys),
+        robustness_pairs=redeployed,
     )

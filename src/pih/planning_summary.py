@@ -16,6 +16,7 @@ from pih.aggregate import (
     PAIRED_COLUMNS,
     SUCCESS_COLUMNS,
     PlanningTables,
+    compared_keys,
     figure_bands,
     level_columns,
     robustness_columns,
@@ -45,15 +46,20 @@ def write_planning_summary(
     }
     for name, (frame, columns) in frames.items():
         write_table(frame, directory / f"{name}.parquet", record, columns)
-    paired = tables.paired
-    robustness_pairs = paired[paired["dimension"].isin(["start_std_m", "model_error"])]
-    against_reference = tables.variant_pairs
+    robustness = f"{markdown_table(tables.robustness)}\n\n{markdown_table(tables.robustness_pairs)}"
+    compared = tables.robustness_pairs["dimension"].isin(compared_keys(sweep_keys))
+    # An ablation's answer: each level's nominal deployment, its deployments from offset starts
+    # and the pairs there, then each variant against the reference.
+    ablation = [tables.ablation, tables.robustness, tables.robustness_pairs[compared]]
+    if len(compared_keys(sweep_keys)) == 0:
+        ablation = ablation[:1]
     markdown = {
         "success": markdown_table(tables.success),
-        "paired": markdown_table(paired),
-        "robustness": f"{markdown_table(tables.robustness)}\n\n{markdown_table(robustness_pairs)}",
-        "ablation": markdown_table(tables.ablation)
-        + (f"\n\n{markdown_table(against_reference)}" if len(against_reference) else ""),
+        "paired": markdown_table(tables.paired),
+        "robustness": robustness,
+        "ablation": "\n\n".join(
+            markdown_table(t) for t in [*ablation, tables.variant_pairs] if len(t)
+        ),
     }
     for name, text in markdown.items():
         write_text(directory / f"{name}.md", text, record)
@@ -65,7 +71,7 @@ def write_planning_summary(
         provenance=record,
     )
     plots.save(
-        plots.deploy_success_figure(tables.ablation),
+        plots.deploy_success_figure(tables.ablation, tables.robustness),
         directory / "fig_deploy_success.png",
         provenance=record,
     )

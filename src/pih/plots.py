@@ -13,7 +13,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from pih.aggregate import best_training_rows
+from pih.aggregate import best_training_rows, compared_rows, headline_std, on_training_scene
 from pih.outputs import write_with
 from pih.provenance import canonical_json, stable
 from pih.run_record import Phase, phase_rows
@@ -261,18 +261,22 @@ def cost_band_figure(bands: pd.DataFrame, group: str = "method") -> plt.Figure:
 METHOD_MARKERS = "osD^vP*X"  # deployment figure: one marker per method, besides its colour
 
 
-def deploy_success_figure(table: pd.DataFrame) -> plt.Figure:
-    """Deployment success with its 95 % interval over runs: under a bold heading per level of
-    every sweep dimension (``all runs`` first), one row per method, named with its run count and
-    drawn in its own colour and marker; hollow beneath it, the final mean's where it was deployed
-    too and differs."""
+def deploy_success_figure(success: pd.DataFrame, robustness: pd.DataFrame) -> plt.Figure:
+    """Deployment success with its 95 % interval over runs, the headline filled: from starts
+    offset by the smallest σ redeployed (``robustness``, on the training scene), hollow beside
+    it from the training start (``success``, :func:`pih.aggregate.ablation_table`'s rows). One
+    bold heading per level of a compared dimension (or ``all runs`` when there is none), one row
+    per method, named with its run count and drawn in its own colour and marker."""
+    compared = compared_rows(success)
+    table = compared if len(compared) else success[success["dimension"] == "all"]
+    std = headline_std(on_training_scene(robustness))
+    offset = on_training_scene(robustness)
+    offset = offset[offset["start_std_m"] == std]
     groups = list(dict.fromkeys(zip(table["dimension"], table["level"])))
     methods = sorted(table["method"].unique())
-    rows = sum(
-        1 + table[(table["dimension"] == d) & (table["level"] == v)].shape[0] for d, v in groups
-    )
-    fig, ax = plt.subplots(figsize=(8, 0.32 * rows + 1.4))
+    fig, ax = plt.subplots(figsize=(8, 0.32 * (len(groups) + len(table)) + 1.4))
     colours = plt.get_cmap("tab10")
+    offset_name = f"from starts {1e3 * std:g} mm off" if std else "from offset starts"
     y = 0.0
     ticks, labels, headings = [], [], []
     shown: set[str] = set()
@@ -288,31 +292,33 @@ def deploy_success_figure(table: pd.DataFrame) -> plt.Figure:
             row = part[part["method"] == method]
             if row.empty:
                 continue
-            row = row.iloc[0]
+            nominal = row.iloc[0]
+            off = offset[offset["method"] == method]
+            if dimension != "all":
+                off = off[off[dimension].astype(str) == str(level)]
             marker = METHOD_MARKERS[m % len(METHOD_MARKERS)]
-            for prefix, offset, face in (("", 0.0, colours(m)), ("final_mean_", -0.3, "white")):
-                rate = row.get(f"{prefix}deploy_success_rate", np.nan)
-                if not np.isfinite(rate) or (prefix and row["deploy_success_rate"] == rate):
+            points = [(nominal, -0.3, "white", f"{method}, from the training start")]
+            if len(off):
+                points.insert(0, (off.iloc[0], 0.0, colours(m), f"{method}, {offset_name}"))
+            for values, shift, face, name in points:
+                rate = values["deploy_success_rate"]
+                if not np.isfinite(rate):
                     continue
-                name = f"{method}, final mean" if prefix else method
                 ax.errorbar(
                     rate,
-                    y + offset,
-                    xerr=[
-                        [rate - row[f"{prefix}deploy_ci_low"]],
-                        [row[f"{prefix}deploy_ci_high"] - rate],
-                    ],
+                    y + shift,
+                    xerr=[[rate - values["deploy_ci_low"]], [values["deploy_ci_high"] - rate]],
                     fmt=marker,
                     color=colours(m),
                     mfc=face,
                     ms=6,
-                    lw=1.0 if not prefix else 0.6,
+                    lw=1.0 if shift == 0 else 0.6,
                     capsize=3,
                     label=None if name in shown else name,
                 )
                 shown.add(name)
             ticks.append(y)
-            labels.append(f"{method} (n = {int(row['runs'])} runs)")
+            labels.append(f"{method} (n = {int(nominal['runs'])} runs)")
             y -= 1
         y -= 0.3
     ax.set_yticks(ticks, labels, fontsize=7)

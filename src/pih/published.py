@@ -1,11 +1,12 @@
-"""The published default study: what the repository carries, whether it is still current, and
+"""The published studies: what the repository carries, whether it is still current, and
 ``pih compare OLD NEW``: did a study reproduce another one (e.g. the published one)?
 
-``published/default/`` is a copy of one complete ``snakemake -j2`` run of ``config/config.yaml``
-at one commit (:func:`publish` copies it from ``results/``: data, tables, figures, provenance;
-not the recordings). The workflow never reads it: a fresh clone recomputes everything.
-:func:`stale_reasons` says why it no longer matches the config or the rollout code
-(tests/test_published.py fails then).
+``published/<study>/`` is a copy of one complete ``snakemake -j2`` run of a study
+(:data:`PUBLISHED_STUDIES`: the default ``config/config.yaml``, and the sim-to-real study) at
+one commit (:func:`publish` copies it from ``results/``: data, tables, figures, provenance; not
+the recordings), and README's results for it are generated from its tables. The workflow never
+reads it: a fresh clone recomputes everything. :func:`stale_reasons` says why it no longer
+matches the config or the rollout code (tests/test_published.py fails then).
 
 Two result trees (``results/`` directories of studies) are compared on their headline numbers —
 deployment success per method from offset starts and from the training start, with intervals,
@@ -28,7 +29,39 @@ import pandas as pd
 from pih.outputs import read_provenance
 from pih.provenance import canonical_json, input_sha256, rollout_code_hash
 
-PUBLISHED_DIR = Path("published/default")
+
+@dataclass(frozen=True)
+class PublishedStudy:
+    """A study whose run the repository carries: its config files (as given to Snakemake) and
+    what README calls it."""
+
+    name: str
+    config_files: tuple[str, ...]
+    title: str
+
+    @property
+    def directory(self) -> Path:
+        return Path("published") / self.name
+
+    @property
+    def markers(self) -> tuple[str, str]:
+        """README's comments around the results generated from this study."""
+        tail = "" if self.name == "default" else f" {self.name}"
+        return f"<!-- PUBLISHED-RESULTS{tail} -->", f"<!-- /PUBLISHED-RESULTS{tail} -->"
+
+
+PUBLISHED_STUDIES = {
+    study.name: study
+    for study in (
+        PublishedStudy("default", ("config/config.yaml",), "default study"),
+        PublishedStudy(
+            "sim_to_real",
+            ("config/config.yaml", "config/sim_to_real.yaml"),
+            "sim-to-real study",
+        ),
+    )
+}
+PUBLISHED_DIR = PUBLISHED_STUDIES["default"].directory
 PUBLISHED_GLOBS = (
     "summary.md",
     "provenance.md",
@@ -108,8 +141,14 @@ def _same(a: object, b: object, rtol: float) -> bool:
     return a == b
 
 
+KEY_DEFAULTS = {"model_error": "none"}
+"""A key column a table of an older version lacks, as it reads (robustness before model
+errors: every deployment on the training scene)."""
+
+
 def _rows(path: Path, keys: tuple[str, ...], numbers: tuple[str, ...]) -> dict[str, dict]:
     frame = pd.read_parquet(path)
+    frame = frame.assign(**{k: v for k, v in KEY_DEFAULTS.items() if k in keys and k not in frame})
     present = [c for c in numbers if c in frame.columns]
     return {
         ", ".join(f"{k}={row[k]}" for k in keys if k in frame.columns): {c: row[c] for c in present}
@@ -147,22 +186,42 @@ def _presence(missing: bool) -> str:
 
 
 def run_files(tree: Path) -> dict[str, Path]:
-    """The planning runs' data files of a tree, by path relative to it."""
-    planning = tree / "planning"
-    files = [*planning.glob("*/rollouts.parquet"), *planning.glob("*/redeploy_*.parquet")]
-    return {str(f.relative_to(tree)): f for f in sorted(files)}
+    """The planning runs' data files of a tree, by their run's sweep point (in today's keys,
+    :func:`pih.study_config.upgraded_point`: directory names changed with 0.4.0) and file name."""
+    from pih.study_config import upgraded_point
+
+    files = {}
+    for rollouts in sorted((tree / "planning").glob("*/rollouts.parquet")):
+        point = point_key(upgraded_point(read_provenance(rollouts)["sweep_point"]))
+        for data in [rollouts, *sorted(rollouts.parent.glob("redeploy_*.parquet"))]:
+            files[f"{point} {data.name}"] = data
+    return files
+
+
+def _same_data(a: Path, b: Path) -> bool:
+    """Whether two run files hold the same table, or agree in every column both have (a newer
+    version adds columns, e.g. ``simulated_hole_*`` in 0.4.0)."""
+    if input_sha256(a) == input_sha256(b):
+        return True
+    before, after = pd.read_parquet(a), pd.read_parquet(b)
+    shared = [c for c in before.columns if c in after.columns]
+    return len(before) == len(after) and before[shared].equals(after[shared])
 
 
 def run_differences(old: Path, new: Path) -> Iterator[Difference]:
-    """Every planning run file whose data (the table, not its provenance) differs or is missing."""
+    """Every planning run file whose data (the table, not its provenance) differs or is missing,
+    named by its path in the tree that has it (the new one when both do)."""
     before, after = run_files(old), run_files(new)
     for name in sorted(set(before) | set(after)):
+        where = after.get(name, before.get(name))
+        tree = new if name in after else old
+        label = str(where.relative_to(tree))
         if name not in before or name not in after:
             yield Difference(
-                name, "run file", _presence(name not in before), _presence(name not in after)
+                label, "run file", _presence(name not in before), _presence(name not in after)
             )
-        elif input_sha256(before[name]) != input_sha256(after[name]):
-            yield Difference(name, "data", "one table", "another")
+        elif not _same_data(before[name], after[name]):
+            yield Difference(label, "data", "one table", "another")
 
 
 def compare(old: Path, new: Path, rtol: float = 1e-9) -> tuple[list[Difference], int]:
@@ -175,12 +234,30 @@ def compare(old: Path, new: Path, rtol: float = 1e-9) -> tuple[list[Difference],
     return differences, compared + len(set(run_files(old)) | set(run_files(new)))
 
 
-def publish(results: Path, destination: Path = PUBLISHED_DIR) -> int:
-    """Copy a finished study's outputs (:data:`PUBLISHED_GLOBS`) into ``destination``, replacing
-    what was there; the number of files copied."""
+def expected_runs(config_files: tuple[str, ...]) -> dict[str, dict[str, object]]:
+    """What a study's config computes: :func:`point_key` of each sweep point -> its resolved
+    ``scene`` and ``planner`` sections."""
+    from pih.study_config import load_config, resolved_sections, sweep_points
+
+    config = load_config(list(config_files))
+    points = sweep_points(config["sweep"], config.get("variants"), config["planner"]["goal"])
+    return {point_key(p): resolved_sections(config, p) for p in points}
+
+
+def publish(results: Path, study: PublishedStudy, root: Path = Path(".")) -> int:
+    """Copy a finished run of ``study`` (:data:`PUBLISHED_GLOBS` under ``results``) into its
+    directory under ``root``, replacing what was there; the number of files copied. A tree that
+    is not that study's run at this code (:func:`stale_reasons`) is refused before anything is
+    copied."""
     files = sorted({f for pattern in PUBLISHED_GLOBS for f in results.glob(pattern) if f.is_file()})
     if not files:
         raise FileNotFoundError(f"{results}: no study outputs to publish")
+    config_files = tuple(str(root / f) for f in study.config_files)
+    reasons = stale_reasons(results, expected_runs(config_files))
+    if reasons:
+        more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
+        raise ValueError(f"{results} is not a run of the {study.title}: {reasons[0]}{more}")
+    destination = root / study.directory
     if destination.exists():
         shutil.rmtree(destination)
     for source in files:
@@ -239,13 +316,14 @@ def _differing_keys(old: Mapping, new: Mapping, prefix: str = "") -> list[str]:
     return keys
 
 
-README_BEGIN, README_END = "<!-- PUBLISHED-RESULTS -->", "<!-- /PUBLISHED-RESULTS -->"
+README_BEGIN, README_END = PUBLISHED_STUDIES["default"].markers
 
 
-def results_block(published: Path) -> str:
-    """README's results table, generated from the published study's summary tables: the
-    headline per method (:func:`pih.summary.planning_rows`) and its paired comparisons from
-    offset starts (those from the training start are in ``summary.md``)."""
+def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["default"]) -> str:
+    """README's results for ``study``, generated from its published summary tables: the
+    headline per method (and per compared level, :func:`pih.summary.planning_rows`) and its
+    paired comparisons from offset starts (those from the training start are in
+    ``summary.md``)."""
     from pih.outputs import markdown_table
     from pih.summary import perturbed_pairs, planning_rows
 
@@ -255,23 +333,27 @@ def results_block(published: Path) -> str:
     )
     record = read_provenance(tables / "success.parquet")
     source = (
-        f"The published default study (`{PUBLISHED_DIR}/`, code `{record['code_version']}`, "
+        f"The published {study.title} (`{study.directory}/`, code `{record['code_version']}`, "
         f"{record['created_utc'][:10]}); deployment success, 95 % interval over runs:"
     )
+    begin, end = study.markers
     return "\n\n".join(
         [
-            README_BEGIN,
+            begin,
             source,
             markdown_table(planning_rows(success, robustness), "{:.3g}").strip(),
             "Paired from offset starts (sign test over the untied pairs):",
             markdown_table(perturbed_pairs(paired, robustness), "{:.3g}").strip(),
-            README_END,
+            end,
         ]
     )
 
 
-def readme_with_results(readme: str, block: str) -> str:
-    """``readme`` with the text between the results markers replaced by ``block``."""
-    start, end = readme.index(README_BEGIN), readme.find(README_END)
-    end = end + len(README_END) if end >= 0 else start + len(README_BEGIN)
+def readme_with_results(
+    readme: str, block: str, study: PublishedStudy = PUBLISHED_STUDIES["default"]
+) -> str:
+    """``readme`` with the text between ``study``'s results markers replaced by ``block``."""
+    begin, end_marker = study.markers
+    start, end = readme.index(begin), readme.find(end_marker)
+    end = end + len(end_marker) if end >= 0 else start + len(begin)
     return readme[:start] + block + readme[end:]

@@ -11,7 +11,13 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from pih.aggregate import NO_MODEL_ERROR, compared_rows
+from pih.aggregate import (
+    NO_MODEL_ERROR,
+    compared_rows,
+    headline_std,
+    offset_level,
+    on_training_scene,
+)
 from pih.outputs import markdown_table
 
 # Paper Table 2: relative error (%) of the hydroelastic model against Whitney, per offset ε0 (m).
@@ -94,19 +100,6 @@ def chosen_variants(variants: pd.DataFrame) -> pd.DataFrame:
 
 def _interval(rate: float, low: float, high: float) -> str:
     return "—" if not np.isfinite(rate) else f"{rate:.2f} ({low:.2f}–{high:.2f})"
-
-
-def headline_std(robustness: pd.DataFrame) -> float | None:
-    """The start std of the headline: the smallest σ > 0 the study redeployed at."""
-    stds = sorted(s for s in robustness["start_std_m"].unique() if s > 0)
-    return float(stds[0]) if stds else None
-
-
-def on_training_scene(robustness: pd.DataFrame) -> pd.DataFrame:
-    """The deployments on the scene the policies were trained on (no model error)."""
-    if "model_error" not in robustness:
-        return robustness
-    return robustness[robustness["model_error"] == NO_MODEL_ERROR]
 
 
 def model_error_rows(robustness: pd.DataFrame, paired: pd.DataFrame) -> pd.DataFrame:
@@ -200,10 +193,17 @@ def planning_rows(success: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFra
 
 
 def perturbed_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
-    """The paired comparisons on the headline's offset starts (same draws at each point)."""
+    """The paired comparisons on the headline's offset starts (same draws at each point): per
+    level of a compared dimension where the study has one (its levels do not pool), else over
+    all points."""
     std = headline_std(on_training_scene(robustness))
     if std is None:
         return paired[:0]
+    suffix = offset_level("", std)
+    per_level = paired[paired["level"].str.endswith(suffix)]
+    if len(per_level):
+        levels = per_level["level"].str.slice(stop=-len(suffix))
+        return per_level.assign(level=levels).reset_index(drop=True)
     rows = paired[(paired["dimension"] == "start_std_m") & (paired["level"] == str(std))]
     return rows.drop(columns=["dimension", "level"]).reset_index(drop=True)
 
