@@ -183,6 +183,40 @@ def test_the_published_study_is_what_the_config_and_code_compute(study):
     assert reasons == [], f"{study.directory} is stale: " + "; ".join(reasons[:10])
 
 
+def test_publish_copies_a_studys_run_whole_and_nothing_else(tmp_path):
+    """A tree that is the study's run (its one sweep point, resolved config and this rollout
+    code) is copied by the study's globs into published/<name>, replacing the old copy."""
+    from pih.outputs import write_table
+    from pih.provenance import record
+    from pih.published import PublishedStudy, publish
+
+    shutil.copytree(ROOT / "config", tmp_path / "config")
+    (tmp_path / "config" / "one.yaml").write_text(
+        "sweep:\n  planner.start_x_m: [-0.04]\n  planner.goal: [deepest_explored]\n"
+    )
+    study = PublishedStudy(
+        "one", ("config/config.yaml", "config/one.yaml"), "one-run study", ("planning/*/*.parquet",)
+    )
+    [(key, sections)] = expected_runs(tuple(str(tmp_path / f) for f in study.config_files)).items()
+    results = tmp_path / "results"
+    run = results / "planning" / "start_x_m~-0.04_goal~deepest_explored"
+    rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
+    units = {"phase": ("", "phase"), "success": ("1", "inserted")}
+    point = {"planner.start_x_m": -0.04, "planner.goal": "deepest_explored"}
+    assert point_key(point) == key
+    write_table(rows, run / "rollouts.parquet", record("plan", point=point, config=sections), units)
+    (run / "run.rrd").write_bytes(b"not copied")
+    (tmp_path / "published" / "one" / "old").mkdir(parents=True)
+    assert publish(results, study, root=tmp_path) == 1
+    published = sorted(p.relative_to(tmp_path) for p in (tmp_path / "published").rglob("*"))
+    assert [str(p) for p in published] == [
+        "published/one",
+        "published/one/planning",
+        "published/one/planning/start_x_m~-0.04_goal~deepest_explored",
+        "published/one/planning/start_x_m~-0.04_goal~deepest_explored/rollouts.parquet",
+    ]
+
+
 def test_publish_refuses_a_tree_that_is_not_the_studys_run(tmp_path, capsys, monkeypatch):
     """A results tree of another study (here: one run of a made-up sweep point) is refused in
     one line before anything is copied; the published copy and README stay as they were."""

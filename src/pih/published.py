@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import math
 import shutil
+import tempfile
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,6 +39,8 @@ class PublishedStudy:
     name: str
     config_files: tuple[str, ...]
     title: str
+    globs: tuple[str, ...]
+    """What :func:`publish` copies from the study's results tree."""
 
     @property
     def directory(self) -> Path:
@@ -50,30 +53,36 @@ class PublishedStudy:
         return f"<!-- PUBLISHED-RESULTS{tail} -->", f"<!-- /PUBLISHED-RESULTS{tail} -->"
 
 
-PUBLISHED_STUDIES = {
-    study.name: study
-    for study in (
-        PublishedStudy("default", ("config/config.yaml",), "default study"),
-        PublishedStudy(
-            "sim_to_real",
-            ("config/config.yaml", "config/sim_to_real.yaml"),
-            "sim-to-real study",
-        ),
-    )
-}
-PUBLISHED_DIR = PUBLISHED_STUDIES["default"].directory
-PUBLISHED_GLOBS = (
+PLANNING_GLOBS = (
     "summary.md",
     "provenance.md",
     "planning/*/rollouts.parquet",
     "planning/*/redeploy_*.parquet",
     "planning/summary/*",
-    "validation/*.*",
-    "whitney/*.parquet",
 )
-"""What :func:`publish` copies from a results tree: every rollout's record (≈ 0.3 MB a run),
-the tables, figures and provenance. Not the per-step traces (best paths, validation runs: tens
-of MB a run at 0.5 ms), the recordings or the report, which the workflow remakes."""
+"""Every rollout's record (≈ 0.3 MB a run), the planning tables, figures and provenance. Not
+the per-step traces (best paths, validation runs: tens of MB a run at 0.5 ms), the recordings or
+the report, which the workflow remakes."""
+
+PUBLISHED_STUDIES = {
+    study.name: study
+    for study in (
+        PublishedStudy(
+            "default",
+            ("config/config.yaml",),
+            "default study",
+            (*PLANNING_GLOBS, "validation/*.*", "whitney/*.parquet"),
+        ),
+        # Its validation is the default's (two of its variants): only the compared numbers.
+        PublishedStudy(
+            "sim_to_real",
+            ("config/config.yaml", "config/sim_to_real.yaml"),
+            "sim-to-real study",
+            (*PLANNING_GLOBS, "validation/comparison.*", "validation/variants.*"),
+        ),
+    )
+}
+PUBLISHED_DIR = PUBLISHED_STUDIES["default"].directory
 
 # (table under a results tree, the columns that name a row, the numbers compared)
 HEADLINE_TABLES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
@@ -245,11 +254,11 @@ def expected_runs(config_files: tuple[str, ...]) -> dict[str, dict[str, object]]
 
 
 def publish(results: Path, study: PublishedStudy, root: Path = Path(".")) -> int:
-    """Copy a finished run of ``study`` (:data:`PUBLISHED_GLOBS` under ``results``) into its
-    directory under ``root``, replacing what was there; the number of files copied. A tree that
-    is not that study's run at this code (:func:`stale_reasons`) is refused before anything is
-    copied."""
-    files = sorted({f for pattern in PUBLISHED_GLOBS for f in results.glob(pattern) if f.is_file()})
+    """Copy a finished run of ``study`` (its :attr:`PublishedStudy.globs` under ``results``)
+    into its directory under ``root``, replacing what was there; the number of files copied. A
+    tree that is not that study's run at this code (:func:`stale_reasons`) is refused before
+    anything is copied."""
+    files = sorted({f for pattern in study.globs for f in results.glob(pattern) if f.is_file()})
     if not files:
         raise FileNotFoundError(f"{results}: no study outputs to publish")
     config_files = tuple(str(root / f) for f in study.config_files)
@@ -258,12 +267,19 @@ def publish(results: Path, study: PublishedStudy, root: Path = Path(".")) -> int
         more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
         raise ValueError(f"{results} is not a run of the {study.title}: {reasons[0]}{more}")
     destination = root / study.directory
-    if destination.exists():
-        shutil.rmtree(destination)
-    for source in files:
-        target = destination / source.relative_to(results)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copy2(source, target)
+    destination.parent.mkdir(parents=True, exist_ok=True)
+    # Copied beside it first, so that an interrupted copy leaves the published study whole.
+    staging = Path(tempfile.mkdtemp(prefix=f".{study.name}-", dir=destination.parent))
+    try:
+        for source in files:
+            target = staging / source.relative_to(results)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(source, target)
+        if destination.exists():
+            shutil.rmtree(destination)
+        staging.rename(destination)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     return len(files)
 
 
