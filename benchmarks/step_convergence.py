@@ -36,7 +36,7 @@ import pyarrow.parquet as pq
 
 from pih.config import from_mapping, to_mapping
 from pih.planner import Planner, RolloutWorkers
-from pih.planner_config import PlannerConfig
+from pih.planner_config import ONE_LEVEL, PlannerConfig
 from pih.run_record import RecordedRun, recorded_rollout, succeeded
 from pih.scene_config import SceneConfig
 from pih.study_config import load_config
@@ -55,8 +55,8 @@ COLUMNS = [
 
 
 def method_of(run: RecordedRun) -> str:
-    planner = run.planner
-    return "one_level" if planner.method == "one_level" else planner.outer.rule
+    goal = run.planner.goal
+    return "one_level" if goal == ONE_LEVEL else goal
 
 
 def draw_set(paths: list[Path], size: int = SET_SIZE) -> pd.DataFrame:

@@ -416,3 +416,27 @@ def test_readme_sim_to_real_prose_quotes_the_published_numbers():
     assert all(s > 0 for s, _ in near) and all(s == 0 for s, _ in far)
     sensed_far = " and ".join(f"{1e3 * x:.1f}" for _, x in sorted(far, key=lambda f: f[1]))
     assert f"not at the 2 sensed {sensed_far} mm off" in prose
+
+
+@pytest.mark.skipif(not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study here")
+def test_the_step_convergence_set_draws_from_the_published_runs():
+    """``benchmarks/step_convergence.py --draw-from`` reads today's run records (it broke
+    silently when ``planner.goal`` replaced method and rule): an equal share per method, each
+    rollout a late training rollout of its run, drawn the same way twice."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "step_convergence", ROOT / "benchmarks" / "step_convergence.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    runs = sorted((ROOT / PUBLISHED_DIR / "planning").glob("*/rollouts.parquet"))
+    drawn = module.draw_set(runs)
+    assert drawn["method"].value_counts().to_dict() == {
+        "deepest_explored": 80,
+        "explored_argmin": 80,
+        "one_level": 80,
+    }
+    iterations = pd.read_parquet(runs[0])["iteration"].max()
+    assert (drawn["iteration"] > iterations / 2).all()
+    assert drawn.equals(module.draw_set(runs))
