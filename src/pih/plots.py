@@ -269,9 +269,9 @@ def deploy_success_figure(success: pd.DataFrame, robustness: pd.DataFrame) -> pl
     per method, named with its run count and drawn in its own colour and marker."""
     compared = compared_rows(success)
     table = compared if len(compared) else success[success["dimension"] == "all"]
-    std = headline_std(on_training_scene(robustness))
-    offset = on_training_scene(robustness)
-    offset = offset[offset["start_std_m"] == std]
+    trained_scene = on_training_scene(robustness)
+    std = headline_std(trained_scene)
+    offset = trained_scene[trained_scene["start_std_m"] == std]
     groups = list(dict.fromkeys(zip(table["dimension"], table["level"])))
     methods = sorted(table["method"].unique())
     fig, ax = plt.subplots(figsize=(8, 0.32 * (len(groups) + len(table)) + 1.4))

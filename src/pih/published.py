@@ -27,6 +27,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from pih.aggregate import NO_MODEL_ERROR
 from pih.outputs import read_provenance
 from pih.provenance import canonical_json, input_sha256, rollout_code_hash
 
@@ -150,7 +151,7 @@ def _same(a: object, b: object, rtol: float) -> bool:
     return a == b
 
 
-KEY_DEFAULTS = {"model_error": "none"}
+KEY_DEFAULTS = {"model_error": NO_MODEL_ERROR}
 """A key column a table of an older version lacks, as it reads (robustness before model
 errors: every deployment on the training scene)."""
 
