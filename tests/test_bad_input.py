@@ -350,8 +350,12 @@ def files_under(folder: Path) -> set[str]:
     return {str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file()}
 
 
-def start_writer(work: Path, source: str, *args: str) -> subprocess.Popen:
-    (work / "writer.py").write_text(textwrap.dedent(source))
+def start_writer(work: Path, source: str, *args: str, hangup: str = "SIG_DFL") -> subprocess.Popen:
+    """The writer starts with SIGHUP at ``hangup`` and SIGTERM at its default, whatever this
+    process inherited (a test run under ``nohup`` ignores SIGHUP, and its children would)."""
+    signals = f"import signal\nsignal.signal(signal.SIGHUP, signal.{hangup})\n"
+    signals += "signal.signal(signal.SIGTERM, signal.SIG_DFL)\n"
+    (work / "writer.py").write_text(signals + textwrap.dedent(source))
     return subprocess.Popen(
         [sys.executable, "writer.py", *args],
         cwd=work,
@@ -370,6 +374,20 @@ def test_a_terminated_write_leaves_no_file_anywhere(tmp_path, number):
     writer.send_signal(number)
     assert writer.wait(timeout=30) == -number  # ended by the signal, as without the handler
     assert files_under(tmp_path / "results") == {"done.md"}
+    assert files_under(tmp_path / TEMPORARY_DIR) == set()
+
+
+def test_an_ignored_hangup_stays_ignored_while_writing(tmp_path):
+    """Under ``nohup`` a SIGHUP does not end the writer (no handler replaces SIG_IGN); a
+    SIGTERM then still removes its temporary file."""
+    writer = start_writer(tmp_path, WRITER, hangup="SIG_IGN")
+    assert writer.stdout.readline() == "writing\n"
+    writer.send_signal(signal.SIGHUP)
+    with pytest.raises(subprocess.TimeoutExpired):
+        writer.wait(timeout=2)
+    assert any(n.endswith(".rrd") for n in files_under(tmp_path / TEMPORARY_DIR))
+    writer.send_signal(signal.SIGTERM)
+    assert writer.wait(timeout=30) == -signal.SIGTERM
     assert files_under(tmp_path / TEMPORARY_DIR) == set()
 
 
