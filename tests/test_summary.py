@@ -177,16 +177,13 @@ def test_summary_names_the_code_version_and_links_the_tables():
         "deploy_trials": 2,
         "planning_runs": 6,
     }
-    text = summary_markdown(
-        _comparison(),
-        variants,
-        _success(),
-        paired,
-        _robustness(),
-        "abc123",
-        {"success": "planning/s.md"},
-        study,
-    )
+
+    def summary(links: dict[str, str], about: dict) -> str:
+        return summary_markdown(
+            _comparison(), variants, _success(), paired, _robustness(), "abc123", links, about
+        )
+
+    text = summary({"success": "planning/s.md"}, study)
     assert "| bilevel/deepest_explored | one_level | 12 | 7 | 2 | 3 | 0.89 | 0.18 |" in text
     assert "| bilevel/deepest_explored | one_level | 12 | 12 | 0 | 0 | 0.89 | 0.000488 |" in text
     assert text.index("| 7 | 2 | 3 |") < text.index("| 12 | 0 | 0 |")  # offset starts first
@@ -194,16 +191,7 @@ def test_summary_names_the_code_version_and_links_the_tables():
     assert "`abc123`" in text
     assert "`config/config.yaml`, `config/smoke.yaml`; budget 3 iterations × 4 rollouts" in text
     assert "6 planning runs" in text and "Not the default study" in text
-    assert "Not the default study" not in summary_markdown(
-        _comparison(),
-        variants,
-        _success(),
-        paired,
-        _robustness(),
-        "abc123",
-        {},
-        study | {"default": True},
-    )
+    assert "Not the default study" not in summary({}, study | {"default": True})
     assert "- [success](planning/s.md)" in text
     assert text.index("Would the learned policy insert") < text.index("Whitney")
 
