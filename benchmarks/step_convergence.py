@@ -16,9 +16,14 @@ after sorting by (run, iteration, rollout); 240 in all (80 per method). Redraw i
     python benchmarks/step_convergence.py [--configfile config/config.yaml] [--workers 2]
                                           [--time-step-s H] [--draw-from RUN ...]
 
+``--deployments RUN ...`` (``results/planning/*/rollouts.parquet``) replays instead the
+deployment trials a study reports (each run's ``phase == 'deploy'`` trials from the training
+start and from its redeployed offset starts beside it), so one sees whether the step changes the
+headline and not only training rollouts at the edge.
+
 The last line is machine-readable: ``flips=F of N median_dp2_um=D verdict=PASS|FAIL``, PASS when
 at least 97 % of the outcomes agree. A step that fails is still allowed in a config (a user's
-choice); the study's own step must pass (README, docs/simulation.md).
+choice); docs/simulation.md records what the study's step gives.
 """
 
 from __future__ import annotations
@@ -84,6 +89,28 @@ def draw_set(paths: list[Path], size: int = SET_SIZE) -> pd.DataFrame:
     return drawn
 
 
+def deployment_trials(paths: list[Path]) -> tuple[pd.DataFrame, PlannerConfig]:
+    """Each run's deployment trials: from the training start (``rollouts.parquet``) and from its
+    redeployed offset starts (``redeploy_start_std_m~*.parquet``), ``source`` naming which."""
+    trials = []
+    planner_config: PlannerConfig | None = None
+    for path in sorted(paths):
+        run, run_dir = RecordedRun.read(path), path.parent
+        sources = [("training start", run.rollouts)]
+        for path in sorted(run_dir.glob("redeploy_start_std_m~*.parquet")):
+            sources.append((path.stem.removeprefix("redeploy_"), pd.read_parquet(path)))
+        for source, rows in sources:
+            deployed = rows[rows["phase"] == "deploy"]
+            trials.append(
+                deployed.assign(run=run_dir.name, method=method_of(run), source=source)[
+                    [*COLUMNS, "source"]
+                ]
+            )
+        planner_config = planner_config or run.planner
+    assert planner_config is not None
+    return pd.concat(trials, ignore_index=True), planner_config
+
+
 def write_set(drawn: pd.DataFrame, path: Path) -> None:
     table = pa.Table.from_pandas(drawn, preserve_index=False)
     meta = {**(table.schema.metadata or {}), b"planner": json.dumps(drawn.attrs["planner"])}
@@ -124,7 +151,11 @@ def main() -> int:
     parser.add_argument("--configfile", nargs="+", default=["config/config.yaml"])
     parser.add_argument("--time-step-s", type=float, help="the step h to check (default: config's)")
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--draw-from", nargs="+", type=Path, metavar="ROLLOUTS")
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--draw-from", nargs="+", type=Path, metavar="ROLLOUTS")
+    group.add_argument(
+        "--deployments", nargs="+", type=Path, metavar="ROLLOUTS", help="replay these instead"
+    )
     parser.add_argument(
         "--output", type=Path, help="Parquet of every rollout's outcome at h and h/2"
     )
@@ -134,7 +165,7 @@ def main() -> int:
         drawn = draw_set(args.draw_from)
         write_set(drawn, SET_PATH)
         print(f"{SET_PATH}: {len(drawn)} rollouts ({drawn['method'].value_counts().to_dict()})")
-    rows, planner = read_set(SET_PATH)
+    rows, planner = deployment_trials(args.deployments) if args.deployments else read_set(SET_PATH)
     config = load_config(args.configfile)
     scene = from_mapping(SceneConfig, config["scene"], "scene")
     step = args.time_step_s or scene.solver.time_step_s
@@ -154,14 +185,15 @@ def main() -> int:
         f"{n} recorded rollouts at h = {1e3 * step:g} ms and h/2 ({seconds['h']:.0f} s and "
         f"{seconds['h/2']:.0f} s with {args.workers} workers)"
     )
-    for method, group in rows.groupby("method"):
+    for name, group in rows.groupby([c for c in ("method", "source") if c in rows]):
         idx = group.index.to_numpy()
         print(
-            f"  {method}: {flips[idx].sum()} of {len(idx)} flip; inserted {inserted_h[idx].sum()} "
-            f"at h, {inserted_half[idx].sum()} at h/2"
+            f"  {', '.join(name)}: {flips[idx].sum()} of {len(idx)} flip; inserted "
+            f"{inserted_h[idx].sum()} at h, {inserted_half[idx].sum()} at h/2"
         )
     if args.output:
-        per_rollout = rows[["run", "method", "iteration", "rollout"]].assign(
+        keys = [c for c in ("run", "method", "source", "iteration", "rollout") if c in rows]
+        per_rollout = rows[keys].assign(
             inserted_h=inserted_h,
             inserted_half=inserted_half,
             **{
