@@ -1,12 +1,12 @@
-"""Benchmark: a planning run at the study's converged step against the 2 ms baseline.
+"""Benchmark: a planning run at the study's step against the 2 ms baseline.
 
 Runs Algorithm 1 (paper Table 4's budget per iteration: 10 rollouts) for a few iterations twice,
 each in a fresh process, on the same sweep point, and prints wall-clock figures and their ratio:
 
 - baseline: the setting before the step-convergence work: 2 ms step (retry 1 ms), Drake's sampled
   output ports on, glibc's malloc;
-- converged: the study's scene (``--configfile``, default config/config.yaml: its step, unsampled
-  ports) with the allocator the workflow preloads (tcmalloc or jemalloc when installed).
+- converged: the study's scene (``--configfile``, default config/config.yaml: its step and port
+  setting) with the allocator the workflow preloads (tcmalloc or jemalloc when installed).
 
 The default point (our rule, start −31 mm, seed 4) presses into the hole from iteration ≈ 5 on,
 so the runs are contact-rich like a study's late iterations. The last line is machine-readable:
