@@ -42,6 +42,7 @@ import pyarrow.parquet as pq
 from pih.config import from_mapping, to_mapping
 from pih.planner import Planner, RolloutWorkers
 from pih.planner_config import ONE_LEVEL, PlannerConfig
+from pih.pooling import REDEPLOY_PATTERNS
 from pih.run_record import RecordedRun, recorded_rollout, succeeded
 from pih.scene_config import SceneConfig
 from pih.study_config import load_config
@@ -97,8 +98,8 @@ def deployment_trials(paths: list[Path]) -> tuple[pd.DataFrame, PlannerConfig]:
     for path in sorted(paths):
         run, run_dir = RecordedRun.read(path), path.parent
         sources = [("training start", run.rollouts)]
-        for path in sorted(run_dir.glob("redeploy_start_std_m~*.parquet")):
-            sources.append((path.stem.removeprefix("redeploy_"), pd.read_parquet(path)))
+        for redeployed in sorted(run_dir.glob(REDEPLOY_PATTERNS[0])):
+            sources.append((redeployed.stem.removeprefix("redeploy_"), pd.read_parquet(redeployed)))
         for source, rows in sources:
             deployed = rows[rows["phase"] == "deploy"]
             trials.append(
