@@ -83,6 +83,13 @@ def one_line(error: BaseException | str) -> str:
             lambda c: c["validation"]["variants"].update(x={"solver.x": [1]}),
             "validation.variants.x.solver.x",
         ),
+        (
+            lambda c: c["scene"]["solver"].update(discrete_contact_approximation="tamsi"),
+            (
+                "scene.solver.discrete_contact_approximation: 'tamsi' is no longer available: Drake "
+                "1.57 removed TAMSI"
+            ),
+        ),
         (lambda c: c.update(figure_point=None), "figure_point: None is not allowed"),
         (lambda c: c.update(max_sweep_points=0), "max_sweep_points: 0 is not allowed"),
         (lambda c: c.update(max_sweep_points="many"), "max_sweep_points: 'many'"),

@@ -300,21 +300,26 @@ def test_validation_variants_apply_over_the_validation_scene_and_name_bad_keys()
 
     section = ValidationSection(
         scene_overrides={"material.margin_m": 0.0, "hole.fillet_radius_m": 1e-4},
-        variants={"base": {}, "tamsi": {"solver.discrete_contact_approximation": "tamsi"}},
+        variants={"base": {}, "sap": {"solver.discrete_contact_approximation": "sap"}},
         figure_variants=("base",),
     )
     scene = to_mapping(SceneConfig())
-    base, tamsi = section.scene(scene, "base"), section.scene(scene, "tamsi")
-    assert base.material.margin_m == tamsi.material.margin_m == 0.0  # shared overrides
-    assert tamsi.hole.fillet_radius_m == 1e-4
+    base, sap = section.scene(scene, "base"), section.scene(scene, "sap")
+    assert base.material.margin_m == sap.material.margin_m == 0.0  # shared overrides
+    assert sap.hole.fillet_radius_m == 1e-4
     assert (
         base.solver.discrete_contact_approximation,
-        tamsi.solver.discrete_contact_approximation,
+        sap.solver.discrete_contact_approximation,
     ) == (
         SceneConfig().solver.discrete_contact_approximation,
-        "tamsi",
+        "sap",
     )
     assert base.hole.depth_m == section.experiment.hole_depth_m  # deep validation hole
+    removed = ValidationSection(
+        variants={"t": {"solver.discrete_contact_approximation": "tamsi"}}, figure_variants=("t",)
+    )
+    with pytest.raises(ConfigError, match=r"discrete_contact_approximation: 'tamsi' is no longer"):
+        removed.scene(scene, "t")
     bad = ValidationSection(variants={"x": {"material.no_such_key": 1.0}}, figure_variants=("x",))
     with pytest.raises(ConfigError, match=r"validation\.variants\.x: .*no_such_key"):
         bad.scene(scene, "x")

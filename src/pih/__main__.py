@@ -286,6 +286,12 @@ def _show(path: Path) -> int:
         f"created {record['created_utc']}" if "created_utc" in record else "",
     ]
     print(", ".join(d for d in details if d))
+    if "machine" in record:
+        blas = "; ".join(
+            f"{b['internal_api']} {b['version']} ({b['architecture']} kernel)"
+            for b in record["machine"]["blas"]
+        )
+        print(f"cpu {record['machine']['cpu']}; blas {blas or '-'}")
     return 0
 
 

@@ -14,9 +14,7 @@ import math
 import types
 import typing
 from collections.abc import Mapping
-from typing import Any, Literal, TypeVar, get_args, get_origin
-
-T = TypeVar("T")
+from typing import Any, Literal, get_args, get_origin
 
 
 class ConfigError(ValueError):
@@ -93,7 +91,7 @@ def _coerce(tp: Any, value: Any, key: str) -> Any:
     raise TypeError(f"{key}: unsupported field type {tp!r}")
 
 
-def from_mapping(cls: type[T], data: Any, key: str = "") -> T:
+def from_mapping[T](cls: type[T], data: Any, key: str = "") -> T:
     """Build dataclass ``cls`` from ``data`` and validate it; every field required, unknown keys
     rejected. ``key`` is the dotted path of ``data`` in the whole configuration, for messages."""
     obj = _build(cls, data, key)
@@ -103,7 +101,7 @@ def from_mapping(cls: type[T], data: Any, key: str = "") -> T:
     return obj
 
 
-def _build(cls: type[T], data: Any, key: str) -> T:
+def _build[T](cls: type[T], data: Any, key: str) -> T:
     where = key or cls.__name__
     if not isinstance(data, Mapping):
         raise ConfigError(f"{where}: expected a mapping of {cls.__name__} fields, got {data!r}")
@@ -116,6 +114,13 @@ def _build(cls: type[T], data: Any, key: str) -> T:
     if missing:
         raise ConfigError(f"{where}: missing key(s) {missing}")
     prefix = f"{key}." if key else ""
+    for field in dataclasses.fields(cls):
+        removed = field.metadata.get("removed", {})
+        value = data.get(field.name)
+        if isinstance(value, str) and value in removed:
+            raise ConfigError(
+                f"{prefix}{field.name}: {value!r} is no longer available: {removed[value]}"
+            )
     return cls(**{f: _coerce(hints[f], data[f], prefix + f) for f in fields})
 
 
@@ -133,7 +138,7 @@ def with_defaults(cls: type, data: Mapping[str, Any]) -> dict[str, Any]:
     return overlay(to_mapping(cls()), data)
 
 
-def recorded_config(cls: type[T], config: Mapping[str, Any], key: str) -> T:
+def recorded_config[T](cls: type[T], config: Mapping[str, Any], key: str) -> T:
     """Section ``key`` of a recorded config (a provenance record's) as ``cls``. A record written
     before a key existed reads with that key's default (its behaviour from before the key)."""
     return from_mapping(cls, with_defaults(cls, config[key]), key)
@@ -144,12 +149,13 @@ def described(
     description: str = "",
     *,
     default_factory: Any = dataclasses.MISSING,
+    removed: Mapping[str, str] | None = None,
 ) -> Any:
     """A config dataclass field with what its key means: :func:`json_schema` gives it as the
-    key's ``description``, and docs/configuration.md (:func:`markdown_tables`) shows it."""
-    return dataclasses.field(
-        default=default, default_factory=default_factory, metadata={"description": description}
-    )
+    key's ``description``, and docs/configuration.md (:func:`markdown_tables`) shows it.
+    ``removed`` maps values the key once allowed to why they no longer are."""
+    metadata = {"description": description, "removed": dict(removed or {})}
+    return dataclasses.field(default=default, default_factory=default_factory, metadata=metadata)
 
 
 def to_mapping(obj: Any) -> dict[str, Any]:
@@ -169,6 +175,8 @@ def json_schema(tp: Any) -> dict[str, Any]:
             properties[f.name] = json_schema(hints[f.name])
             if f.metadata.get("description"):
                 properties[f.name]["description"] = f.metadata["description"]
+            if f.metadata.get("removed"):
+                properties[f.name]["x-removed"] = f.metadata["removed"]
         return {
             "type": "object",
             "description": _summary(tp),

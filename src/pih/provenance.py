@@ -22,8 +22,18 @@ from typing import Any
 
 SCHEMA_VERSION = 1
 PROVENANCE_KEY = b"pih.provenance"
-VOLATILE_KEYS = ("created_utc", "host", "code_version", "allocator")
-PACKAGES = ("drake", "numpy", "pandas", "pyarrow", "rerun-sdk", "snakemake", "cma", "matplotlib")
+VOLATILE_KEYS = ("created_utc", "host", "code_version", "allocator", "machine")
+PACKAGES = (
+    "drake",
+    "numpy",
+    "pandas",
+    "pyarrow",
+    "rerun-sdk",
+    "snakemake",
+    "cma",
+    "matplotlib",
+    "threadpoolctl",
+)
 LIBRARY_ROOT = Path(__file__).resolve().parent
 
 
@@ -132,14 +142,65 @@ ROLLOUT_MODULES = (
 )
 
 
+class _Behaviour(ast.NodeTransformer):
+    """A module's AST without what does not change what it computes: docstrings, and where its
+    imports come from (``from pih.scene_config import X`` and ``from pih.scene.config import X``
+    bind the same ``X``). Comments are not in an AST at all."""
+
+    def visit_ImportFrom(self, node: ast.ImportFrom) -> ast.AST:
+        if node.level or (node.module or "").split(".")[0] == "pih":
+            return ast.ImportFrom(module="pih", names=node.names, level=0)
+        return node
+
+    def generic_visit(self, node: ast.AST) -> ast.AST:
+        body = getattr(node, "body", None)
+        if isinstance(body, list) and body and _is_docstring(body[0]):
+            node.body = body[1:] or [ast.Pass()]
+        return super().generic_visit(node)
+
+
+def _is_docstring(node: ast.stmt) -> bool:
+    return (
+        isinstance(node, ast.Expr)
+        and isinstance(node.value, ast.Constant)
+        and isinstance(node.value.value, str)
+    )
+
+
+def behaviour_dump(source: str) -> str:
+    """What a module's source computes, as text: its normalized AST (:class:`_Behaviour`), the
+    same for a moved file, a reworded comment or docstring, and another for a changed
+    expression."""
+    return ast.dump(_Behaviour().visit(ast.parse(source)), include_attributes=False)
+
+
 @functools.cache
 def rollout_code_hash() -> str:
-    """sha256 over :data:`ROLLOUT_MODULES` (names and contents)."""
-    digest = hashlib.sha256()
-    for name in ROLLOUT_MODULES:
-        digest.update(name.encode())
-        digest.update((LIBRARY_ROOT / f"{name}.py").read_bytes())
-    return digest.hexdigest()
+    """sha256 over what :data:`ROLLOUT_MODULES` compute (:func:`behaviour_dump`), in an order
+    that does not depend on their names or paths."""
+    dumps = sorted(behaviour_dump((LIBRARY_ROOT / f"{n}.py").read_text()) for n in ROLLOUT_MODULES)
+    return sha256_text("\n".join(dumps))
+
+
+@functools.cache
+def machine() -> dict[str, Any]:
+    """The CPU and the BLAS numpy calls (library, version, the kernel it picked for this CPU):
+    what a physics difference across machines is attributed to (docs/reproducibility.md)."""
+    import numpy  # noqa: F401 - loads the BLAS that threadpoolctl reports
+    from threadpoolctl import threadpool_info
+
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        lines = []
+    models = [line.split(":", 1)[1].strip() for line in lines if line.startswith("model name")]
+    cpu = models[0] if models else platform.processor() or platform.machine()
+    blas = [
+        {key: pool.get(key) for key in ("internal_api", "version", "architecture")}
+        for pool in threadpool_info()
+        if pool.get("user_api") == "blas"
+    ]
+    return {"cpu": cpu, "blas": blas}
 
 
 def allocator() -> str:
@@ -227,6 +288,7 @@ def record(
         "library_sha256": library_hash(),
         "rollout_code_sha256": rollout_code_hash(),
         "allocator": allocator(),
+        "machine": machine(),
         "packages": package_versions(),
         "simulator": dict(simulator or {}),
         "python": sys.version.split()[0],

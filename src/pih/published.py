@@ -17,6 +17,7 @@ differs is one line; the last line counts them. No Drake, no simulation: it read
 
 from __future__ import annotations
 
+import importlib.metadata
 import json
 import math
 import shutil
@@ -42,6 +43,9 @@ class PublishedStudy:
     title: str
     globs: tuple[str, ...]
     """What :func:`publish` copies from the study's results tree."""
+    rerun_pending: str = ""
+    """Why the published run is known to be stale (:func:`stale_reasons`) and when it is re-run;
+    README's block says it, and the staleness test expects the run stale while it is set."""
 
     @property
     def directory(self) -> Path:
@@ -80,6 +84,10 @@ PUBLISHED_STUDIES = {
             ("config/config.yaml", "config/sim_to_real.yaml"),
             "sim-to-real study",
             (*PLANNING_GLOBS, "validation/comparison.*", "validation/variants.*"),
+            rerun_pending=(
+                "made by Drake 1.51.1 and not yet re-run under this code and Drake: it is re-run "
+                "at the paper's budget once the physics settles (issues 44, 45)"
+            ),
         ),
     )
 }
@@ -288,13 +296,15 @@ def stale_reasons(
     published: Path,
     expected: Mapping[str, Mapping[str, object]],
     code_sha256: str | None = None,
+    drake: str | None = None,
 ) -> list[str]:
     """Why the published planning runs no longer are what the repository would compute: runs
     missing or extra against ``expected`` (:func:`point_key` of a sweep point -> its resolved
     ``scene`` and ``planner`` sections, :func:`pih.study_config.resolved_sections`), a run whose
-    recorded config differs, or whose rollout code (:func:`pih.provenance.rollout_code_hash`)
-    does."""
+    recorded config differs, or whose rollout code (:func:`pih.provenance.rollout_code_hash`) or
+    Drake (default: the installed one) does."""
     code_sha256 = code_sha256 or rollout_code_hash()
+    drake = drake or importlib.metadata.version("drake")
     runs = {}
     for path in sorted((published / "planning").glob("*/rollouts.parquet")):
         runs[point_key(read_provenance(path)["sweep_point"])] = path
@@ -306,8 +316,12 @@ def stale_reasons(
     for key in sorted(set(runs) & set(expected)):
         path = runs[key]
         for data in [path, *sorted(path.parent.glob("redeploy_*.parquet"))]:
-            if read_provenance(data).get("rollout_code_sha256") != code_sha256:
+            made = read_provenance(data)
+            if made.get("rollout_code_sha256") != code_sha256:
                 reasons.append(f"{data.relative_to(published)}: made by other rollout code")
+            made_by = made.get("packages", {}).get("drake")
+            if made_by != drake:
+                reasons.append(f"{data.relative_to(published)}: made by Drake {made_by}, not {drake}")
         recorded = read_provenance(path)["config"]
         for section in ("scene", "planner"):
             now = json.loads(canonical_json(expected[key][section]))
@@ -349,10 +363,14 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
         pd.read_parquet(tables / f"{name}.parquet") for name in ("success", "robustness", "paired")
     )
     record = read_provenance(tables / "success.parquet")
+    drake = record.get("packages", {}).get("drake", "?")
     source = (
         f"The published {study.title} (`{study.directory}/`, code `{record['code_version']}`, "
-        f"{record['created_utc'][:10]}); deployment success, 95 % interval over runs:"
+        f"Drake {drake}, {record['created_utc'][:10]}); deployment success, 95 % interval over "
+        "runs:"
     )
+    if study.rerun_pending:
+        source += f"\n\n**Not current:** {study.rerun_pending}."
     begin, end = study.markers
     return "\n\n".join(
         [

@@ -183,7 +183,7 @@ class PegInHoleScene:
             # Drake's geometry, whose assertion aborts the whole process (measured at 2.5 ms).
             pose_sum = state.GetAtIndex(0) + state.GetAtIndex(1) + state.GetAtIndex(2)
             if not math.isfinite(pose_sum):  # NaN or ±inf in any coordinate
-                return EventStatus.Failed(None, "non-finite peg state")
+                return EventStatus.Failed(plant, "non-finite peg state")
             if log_patches:
                 count = _patches_with_force(contact_results.Eval(plant_context))
                 counts.append((context.get_time(), count))

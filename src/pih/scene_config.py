@@ -170,16 +170,17 @@ class MaterialConfig:
 MIN_TIME_STEP_S = 1.0e-5
 MAX_TIME_STEP_S = 2.0e-3
 ContactModel = Literal["hydroelastic", "hydroelastic_with_fallback", "point"]
-DiscreteApproximation = Literal["tamsi", "sap", "similar", "lagged"]
+DiscreteApproximation = Literal["sap", "similar", "lagged"]
 
 
 @dataclass(frozen=True)
 class SolverConfig:
     """The simulator: time step, Drake's contact model and solver, and divergence limits."""
 
-    # The coarsest step whose insertion outcomes agree with half of it on a recorded set of
-    # planning rollouts (benchmarks/step_convergence.py): at 1 ms and 2 ms pegs that jam at the
-    # chamfer at finer steps slide in (docs/simulation.md). The explicit spring diverges at 2.5 ms.
+    # At 1 ms and 2 ms pegs that jam at the chamfer at finer steps slide in; 0.5 ms agrees with
+    # a 0.0625 ms reference on 233 of 240 recorded planning rollouts but not with its own half
+    # step (benchmarks/step_convergence.py, docs/simulation.md). The explicit spring diverges at
+    # 2.5 ms.
     time_step_s: float = described(5.0e-4, "the simulator's time step")
     retry_time_step_s: float = described(
         2.5e-4,
@@ -187,11 +188,12 @@ class SolverConfig:
         "peg snaps off the chamfer edge) is run once more at this finer step from its start "
         "state, sampled at time_step_s, and the rollout goes on at time_step_s; 0: no retry",
     )
-    # `lagged`, one Drake keeps (it deprecates TAMSI): it gets every validation offset through
-    # with the best agreement, and ran 295 planning rollouts with no failure (docs/simulation.md).
+    # `lagged` gets every validation offset through with the best agreement, and ran 295
+    # planning rollouts with no failure (docs/simulation.md).
     discrete_contact_approximation: DiscreteApproximation = described(
         "lagged",
         "Drake's discrete contact solver (MultibodyPlantConfig.discrete_contact_approximation)",
+        removed={"tamsi": "Drake 1.57 removed TAMSI (its measurements: docs/validation.md)"},
     )
     contact_model: ContactModel = described(
         "hydroelastic",

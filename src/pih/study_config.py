@@ -696,6 +696,8 @@ def schema_message(error: Any) -> str:
         names = [_TYPE_NAMES.get(t, t) for t in types]
         wanted = " or ".join([", ".join(names[:-1]), names[-1]] if len(names) > 1 else names)
         return f"{where}{_short(value)} is not allowed; expected {wanted}"
+    if kind == "enum" and value in error.schema.get("x-removed", {}):
+        return f"{where}{_short(value)} is no longer available: {error.schema['x-removed'][value]}"
     if kind == "enum":
         return f"{where}{_short(value)} is not allowed; expected one of {list(expected)}"
     if kind == "additionalProperties" and isinstance(value, Mapping):
