@@ -583,6 +583,7 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
     from pih.config import ConfigError
     from pih.outputs import write_table
     from pih.provenance import record as provenance_record
+    from pih.redeployment import redeploy
     from pih.run_record import ROLLOUT_COLUMNS, Phase, RecordedRun, phase_rows
 
     if _missing_parent("redeploy", "--output", output):
@@ -607,7 +608,7 @@ def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers
     tables, rates = [], []
     for run, record in zip(runs, recorded, strict=True):
         try:
-            table = record.redeploy(start_std_m, workers)
+            table = redeploy(record, start_std_m, workers)
         except ValueError as error:  # the record and its seeds disagree
             print(f"pih redeploy {run}: {_first_line(error)}", file=sys.stderr)
             return 1

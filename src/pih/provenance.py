@@ -139,6 +139,7 @@ ROLLOUT_MODULES = (
     "outer",
     "run_record",
     "planner",
+    "redeployment",
 )
 
 

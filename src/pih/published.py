@@ -321,7 +321,9 @@ def stale_reasons(
                 reasons.append(f"{data.relative_to(published)}: made by other rollout code")
             made_by = made.get("packages", {}).get("drake")
             if made_by != drake:
-                reasons.append(f"{data.relative_to(published)}: made by Drake {made_by}, not {drake}")
+                reasons.append(
+                    f"{data.relative_to(published)}: made by Drake {made_by}, not {drake}"
+                )
         recorded = read_provenance(path)["config"]
         for section in ("scene", "planner"):
             now = json.loads(canonical_json(expected[key][section]))

@@ -6,7 +6,6 @@ collected by :class:`RunRecorder`), and a recorded run read back (:class:`Record
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -16,7 +15,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from pih.config import recorded_config, to_mapping
+from pih.config import recorded_config
 from pih.costs import CostBalance, CostTerms
 from pih.outputs import read_provenance
 from pih.planner_config import COST_TERMS, PlannerConfig, recorded_planner, replace
@@ -357,32 +356,3 @@ class RecordedRun:
         if "weights" not in self.rollouts:
             raise ValueError("it predates recorded weights")
         return replace(self.planner, deploy_start_std_m=start_std_m)
-
-    def redeploy(
-        self,
-        start_std_m: float,
-        workers: int = 1,
-        model_error: Mapping[str, Any] | None = None,
-    ) -> pd.DataFrame:
-        """The run's deployment phases deployed again from starts offset by N(0, start_std_m²):
-        the deployment it would have made with ``planner.deploy_start_std_m = start_std_m``
-        (:meth:`pih.planner.Planner.redeploy`), on the run's scene or, with ``model_error``
-        (dotted scene settings), on :meth:`deployment_scene`."""
-        from pih.planner import Planner  # not at the top: pih.planner imports this module
-
-        config = self.redeployment_config(start_std_m)
-        scene = self.deployment_scene(model_error or {})
-        planner = Planner.from_configs(scene, config, self.record["seed_key"])
-        recorded_hole = np.array([self.scene.hole.x_m, self.scene.hole.y_m, 0.0])
-        return planner.redeploy(
-            self.rollouts, self.record["result"]["cost_divisors"], workers, recorded_hole
-        )
-
-    def deployment_scene(self, model_error: Mapping[str, Any]) -> SceneConfig:
-        """The real scene of a redeployment: the run's, with ``model_error``'s dotted scene
-        settings (a ConfigError names ``robustness.model_error``)."""
-        from pih.study_config import scene_with  # config layer: no import loop at the top
-
-        if not model_error:
-            return self.scene
-        return scene_with(to_mapping(self.scene), model_error, "robustness.model_error")

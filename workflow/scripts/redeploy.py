@@ -3,6 +3,7 @@ and, for a model error, on a real scene with other settings."""
 
 from pih.config import to_mapping
 from pih.outputs import write_table
+from pih.redeployment import deployment_scene, redeploy
 from pih.run_record import ROLLOUT_COLUMNS, Phase, RecordedRun, phase_rows
 from pih.workflow import job_provenance, logged
 
@@ -11,14 +12,14 @@ with logged(snakemake.log[0]):
     start_std_m = snakemake.params.start_std_m
     model_error = snakemake.params.model_error
     settings = model_error.get("settings", {})
-    table = run.redeploy(start_std_m, model_error=settings)
+    table = redeploy(run, start_std_m, model_error=settings)
     provenance = job_provenance(
         snakemake,
         "redeploy",
         point=run.record["sweep_point"],
         seeds=run.record["seeds"],
         config={
-            "scene": to_mapping(run.deployment_scene(settings)),
+            "scene": to_mapping(deployment_scene(run, settings)),
             "planner": to_mapping(run.redeployment_config(start_std_m)),
         },
         simulator=run.record["simulator"],
