@@ -1,5 +1,4 @@
-"""The published default study: stale-result detection, and pih compare (a fresh study against
-the published one, number by number)."""
+"""The published studies: stale-result detection, publishing, README's numbers from them."""
 
 import importlib.metadata
 import shutil
@@ -14,128 +13,12 @@ from pih.published import (
     PUBLISHED_STUDIES,
     README_BEGIN,
     README_END,
-    compare,
     expected_runs,
     point_key,
     results_block,
     stale_reasons,
 )
 from pih.run_record import RecordedRun
-
-
-def tree(root):
-    """A small results tree: the robustness and paired tables and two runs' data."""
-    summary = root / "planning" / "summary"
-    summary.mkdir(parents=True)
-    pd.DataFrame(
-        {
-            "method": ["bilevel/deepest_explored", "one_level"],
-            "start_std_m": [0.001, 0.001],
-            "runs": [11, 11],
-            "deploy_success_rate": [0.8, 0.2],
-            "deploy_ci_low": [0.5, 0.05],
-            "deploy_ci_high": [0.94, 0.5],
-            "runs_all_inserted": [6, 0],
-        }
-    ).to_parquet(summary / "robustness.parquet")
-    pd.DataFrame(
-        {
-            "method": ["bilevel/deepest_explored"],
-            "versus": ["one_level"],
-            "dimension": ["all"],
-            "level": ["all"],
-            "pairs": [11],
-            "better": [9],
-            "worse": [0],
-            "tied": [2],
-            "mean_difference": [0.6],
-            "sign_test_p": [0.0039],
-        }
-    ).to_parquet(summary / "paired.parquet")
-    for start in (-0.04, -0.03):
-        run_file(root / "planning" / f"start~{start}_seed~0" / "rollouts.parquet", start)
-    return root
-
-
-def run_file(path, start, success=True, point=None, **columns):
-    """A run's ``rollouts.parquet`` with the provenance that names its sweep point."""
-    from pih.outputs import write_table
-    from pih.provenance import record
-
-    point = point or {"planner.start_x_m": start, "planner.goal": "deepest_explored"}
-    rows = pd.DataFrame({"phase": ["deploy"], "success": [success], **columns})
-    units = {c: ("1", c) for c in rows.columns}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_table(rows, path, record("plan", point=point), units)
-
-
-def test_identical_trees_reproduce(tmp_path, capsys):
-    old = tree(tmp_path / "old")
-    new = tmp_path / "new"
-    shutil.copytree(old, new)
-    differences, compared = compare(old, new)
-    assert differences == [] and compared == 2 + 2 * 5 + 6
-    assert main(["compare", str(old), str(new)]) == 0
-    assert "0 of 18 compared items differ" in capsys.readouterr().out
-
-
-def test_a_changed_number_or_run_is_named(tmp_path, capsys):
-    old = tree(tmp_path / "old")
-    new = tmp_path / "new"
-    shutil.copytree(old, new)
-    robustness = new / "planning" / "summary" / "robustness.parquet"
-    pd.read_parquet(robustness).assign(deploy_success_rate=[0.7, 0.2]).to_parquet(robustness)
-    run_file(new / "planning" / "start~-0.03_seed~0" / "rollouts.parquet", -0.03, success=False)
-    (new / "planning" / "start~-0.04_seed~0" / "rollouts.parquet").unlink()
-    assert main(["compare", str(old), str(new)]) == 1
-    out = capsys.readouterr().out.splitlines()
-    assert (
-        "planning/summary/robustness.parquet: method=bilevel/deepest_explored, "
-        "start_std_m=0.001, model_error=none: deploy_success_rate: 0.8 -> 0.7" in out
-    )
-    assert "planning/start~-0.03_seed~0/rollouts.parquet: data: one table -> another" in out
-    assert "planning/start~-0.04_seed~0/rollouts.parquet: run file: present -> missing" in out
-    assert out[-1].startswith("3 of ") and "NOT reproduced" in out[-1]
-    # A tolerance admits a small difference in numbers (not in run data).
-    pd.read_parquet(robustness).assign(deploy_success_rate=[0.8 + 1e-12, 0.2]).to_parquet(
-        robustness
-    )
-    differences, _ = compare(old, new)
-    assert all("robustness" not in d.where for d in differences)
-
-
-def test_a_tree_of_an_older_version_reproduces_on_what_both_record(tmp_path, capsys):
-    """0.3.0 named run directories ``method~…_rule~…`` and its points ``planner.method`` and
-    ``planner.outer.rule``; its robustness table had no ``model_error`` key and its rollouts no
-    ``simulated_hole_*`` columns. Compared with a 0.4.0 tree, the same runs are the same runs."""
-    new = tree(tmp_path / "new")
-    for start in (-0.04, -0.03):
-        path = new / "planning" / f"start~{start}_seed~0" / "rollouts.parquet"
-        run_file(path, start, simulated_hole_x_m=[0.0])
-    robustness = new / "planning" / "summary" / "robustness.parquet"
-    pd.read_parquet(robustness).assign(model_error="none").to_parquet(robustness)
-    old = tree(tmp_path / "old")
-    shutil.rmtree(old / "planning" / "start~-0.04_seed~0")
-    shutil.rmtree(old / "planning" / "start~-0.03_seed~0")
-    for start in (-0.04, -0.03):
-        point = {
-            "planner.start_x_m": start,
-            "planner.method": "bilevel",
-            "planner.outer.rule": "deepest_explored",
-        }
-        path = old / "planning" / f"start~{start}_method~bilevel_rule~x" / "rollouts.parquet"
-        run_file(path, start, point=point, success=start < -0.035)
-    assert main(["compare", str(old), str(new)]) == 1
-    out = capsys.readouterr().out.splitlines()
-    # Only the run whose shared columns differ (success at -0.03) is named, by its new path.
-    assert out[:-1] == ["planning/start~-0.03_seed~0/rollouts.parquet: data: one table -> another"]
-
-
-def test_a_tree_that_is_not_one_is_one_line(tmp_path, capsys):
-    assert main(["compare", str(tmp_path), str(tmp_path / "nope")]) == 1
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "not a results tree" in err[0]
-
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -6,6 +6,7 @@ own results/ are never touched.
 
 from __future__ import annotations
 
+import importlib.metadata
 import json
 import math
 import os
@@ -219,7 +220,8 @@ def test_smoke_study_outputs_carry_provenance(smoke_run):
         assert (
             record["library_sha256"]
             and record["config_sha256"]
-            and record["packages"]["drake"] == "1.51.1"
+            and record["packages"]["drake"] == importlib.metadata.version("drake")
+            and record["machine"]["cpu"]
         )
     rollouts = sorted(results.glob("planning/*/rollouts.parquet"))
     assert len(rollouts) == 2 * (1 + 2)  # starts x (one-level + bilevel with two outer rules)

@@ -21,9 +21,11 @@
   counted once; runs must differ only in their sweep levels (docs/planner.md, "Pooling
   studies");
   ``--reference-variant V`` also compares each variant of an ablation with ``V``;
-- ``pih compare OLD NEW [--rtol R]``: which headline numbers (deployment success, paired
-  comparisons, Table 2–3) and which planning runs' data differ between two result trees, e.g.
-  ``pih compare published/default results`` after a fresh ``snakemake -j2``; exit 0 when none;
+- ``pih compare OLD NEW [--rtol R] [--r-tolerance T]``: did NEW reproduce OLD, e.g.
+  ``pih compare published/default results`` after a fresh ``snakemake -j2``: its conclusions
+  (deployment success inside OLD's intervals, paired signs, validation r; exit 0 when they hold)
+  and its data (headline numbers and planning runs' data, each that differs named, with the
+  likely cause from the provenance: another CPU, Drake or code);
 - ``pih publish [RESULTS] [--study default|sim_to_real]``: copy a finished run of a published
   study (data, tables, figures, provenance; not the recordings) into ``published/<study>``, the
   files README's numbers come from, and regenerate README's results for it; refused when
@@ -50,6 +52,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
+from pih.compare import R_TOLERANCE
 from pih.outputs import read_output_provenance, read_provenance
 
 _RUNNING_SCRIPT = False  # set while `pih job` runs a workflow script: its errors keep tracebacks
@@ -154,12 +157,18 @@ def main(argv: list[str] | None = None) -> int:
         "--reference-variant", help="compare each variant of an ablation against this one"
     )
     check = commands.add_parser(
-        "compare", help="which headline numbers and run data of two result trees differ"
+        "compare", help="did NEW reproduce OLD: its conclusions, and its data number by number"
     )
     check.add_argument("old", type=Path, help="a results tree, e.g. published/default")
     check.add_argument("new", type=Path, help="another, e.g. results")
     check.add_argument(
         "--rtol", type=float, default=1e-9, help="relative tolerance for numbers (default 1e-9)"
+    )
+    check.add_argument(
+        "--r-tolerance",
+        type=float,
+        default=R_TOLERANCE,
+        help=f"how far a validation r may move (default {R_TOLERANCE:g})",
     )
     publish = commands.add_parser(
         "publish", help="copy a finished study into published/STUDY (README's source)"
@@ -204,7 +213,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "publish":
         return _publish(args.results, args.study)
     if args.command == "compare":
-        return _compare(args.old, args.new, args.rtol)
+        return _compare(args.old, args.new, args.rtol, args.r_tolerance)
     if args.command == "schema":
         from pih.study_config import config_markdown, config_schema
 
@@ -561,19 +570,31 @@ def _publish(results: Path, name: str) -> int:
     return 0
 
 
-def _compare(old: Path, new: Path, rtol: float) -> int:
-    from pih.published import compare
+def _compare(old: Path, new: Path, rtol: float, r_tolerance: float) -> int:
+    from pih.compare import compare
 
     try:
-        differences, compared = compare(old, new, rtol)
+        result = compare(old, new, rtol, r_tolerance)
     except (OSError, ValueError) as error:
         print(f"pih compare: {_first_line(error)}", file=sys.stderr)
         return 1
-    for difference in differences:
+    for difference in result.differences:
         print(difference)
-    verdict = "reproduced" if not differences else "NOT reproduced"
-    print(f"{len(differences)} of {compared} compared items differ: {new} {verdict} {old}")
-    return 0 if not differences else 1
+    within = "bit-identical" if rtol == 0 else f"within --rtol {rtol:g}"
+    data = "the same" if result.data_identical else "NOT the same"
+    print(f"data: {result.differing_items()} of {result.items} items differ: {data} ({within})")
+    if result.causes:
+        print(f"data: likely causes, from the provenance: {'; '.join(result.causes)}")
+    failed = [check for check in result.checks if not check.holds]
+    for check in failed:
+        print(check)
+    verdict = "reproduced" if result.conclusions_hold else "NOT reproduced"
+    print(
+        f"conclusions: {len(result.checks) - len(failed)} of {len(result.checks)} hold "
+        f"(deployment success inside the 95 % intervals, paired signs, validation r within "
+        f"{r_tolerance:g}): {new} {verdict} {old}"
+    )
+    return 0 if result.conclusions_hold else 1
 
 
 def _redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers: int) -> int:

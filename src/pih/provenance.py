@@ -289,8 +289,8 @@ def record(
         "library_sha256": library_hash(),
         "rollout_code_sha256": rollout_code_hash(),
         "allocator": allocator(),
-        "machine": machine(),
-        "packages": package_versions(),
+        "machine": json.loads(json.dumps(machine())),  # copies: the cached records stay as read
+        "packages": dict(package_versions()),
         "simulator": dict(simulator or {}),
         "python": sys.version.split()[0],
         "platform": platform.platform(),

@@ -1,36 +1,28 @@
-"""The published studies: what the repository carries, whether it is still current, and
-``pih compare OLD NEW``: did a study reproduce another one (e.g. the published one)?
+"""The published studies: what the repository carries, and whether it is still current.
 
 ``published/<study>/`` is a copy of one complete ``snakemake -j2`` run of a study
 (:data:`PUBLISHED_STUDIES`: the default ``config/config.yaml``, and the sim-to-real study) at
 one commit (:func:`publish` copies it from ``results/``: data, tables, figures, provenance; not
 the recordings), and README's results for it are generated from its tables. The workflow never
 reads it: a fresh clone recomputes everything. :func:`stale_reasons` says why it no longer
-matches the config or the rollout code (tests/test_published.py fails then).
-
-Two result trees (``results/`` directories of studies) are compared on their headline numbers —
-deployment success per method from offset starts and from the training start, with intervals,
-the paired comparisons, Table 2–3's validation numbers — and on each planning run's data (the
-table of ``rollouts.parquet`` and its redeployments, without provenance). Every number that
-differs is one line; the last line counts them. No Drake, no simulation: it reads Parquet files.
+matches the config, the rollout code or the Drake that computes it (tests/test_published.py
+fails then). Whether another run reproduced a published one is :mod:`pih.compare`'s.
 """
 
 from __future__ import annotations
 
 import importlib.metadata
 import json
-import math
 import shutil
 import tempfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
-from pih.aggregate import NO_MODEL_ERROR
 from pih.outputs import read_provenance
-from pih.provenance import canonical_json, input_sha256, rollout_code_hash
+from pih.provenance import canonical_json, rollout_code_hash
 
 
 @dataclass(frozen=True)
@@ -92,164 +84,6 @@ PUBLISHED_STUDIES = {
     )
 }
 PUBLISHED_DIR = PUBLISHED_STUDIES["default"].directory
-
-# (table under a results tree, the columns that name a row, the numbers compared)
-HEADLINE_TABLES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
-    (
-        "planning/summary/robustness.parquet",
-        ("method", "start_std_m", "model_error"),
-        ("runs", "deploy_success_rate", "deploy_ci_low", "deploy_ci_high", "runs_all_inserted"),
-    ),
-    (
-        "planning/summary/success.parquet",
-        ("method", "dimension", "level"),
-        (
-            "runs",
-            "deploy_success_rate",
-            "deploy_ci_low",
-            "deploy_ci_high",
-            "final_mean_deploy_success_rate",
-            "median_goal_iteration",
-        ),
-    ),
-    (
-        "planning/summary/paired.parquet",
-        ("method", "versus", "dimension", "level"),
-        ("pairs", "better", "worse", "tied", "mean_difference", "sign_test_p"),
-    ),
-    (
-        "validation/comparison.parquet",
-        ("variant", "alignment", "offset"),
-        (
-            "r_f_x",
-            "r_f_z",
-            "rel_err_initial_f_x_pct",
-            "rel_err_final_f_x_pct",
-            "rel_err_initial_f_z_pct",
-            "rel_err_final_f_z_pct",
-            "rel_err_final_theta_pct",
-        ),
-    ),
-)
-
-
-@dataclass(frozen=True)
-class Difference:
-    """One headline number or one run's data that is not the same in the two trees."""
-
-    where: str
-    what: str
-    old: object
-    new: object
-
-    def __str__(self) -> str:
-        return f"{self.where}: {self.what}: {_show(self.old)} -> {_show(self.new)}"
-
-
-def _show(value: object) -> str:
-    return f"{value:.6g}" if isinstance(value, float) else str(value)
-
-
-def _same(a: object, b: object, rtol: float) -> bool:
-    if isinstance(a, float | int) and isinstance(b, float | int):
-        a, b = float(a), float(b)
-        if math.isnan(a) or math.isnan(b):
-            return math.isnan(a) and math.isnan(b)
-        return math.isclose(a, b, rel_tol=rtol, abs_tol=rtol)
-    return a == b
-
-
-KEY_DEFAULTS = {"model_error": NO_MODEL_ERROR}
-"""A key column a table of an older version lacks, as it reads (robustness before model
-errors: every deployment on the training scene)."""
-
-
-def _rows(path: Path, keys: tuple[str, ...], numbers: tuple[str, ...]) -> dict[str, dict]:
-    frame = pd.read_parquet(path)
-    frame = frame.assign(**{k: v for k, v in KEY_DEFAULTS.items() if k in keys and k not in frame})
-    present = [c for c in numbers if c in frame.columns]
-    return {
-        ", ".join(f"{k}={row[k]}" for k in keys if k in frame.columns): {c: row[c] for c in present}
-        for _, row in frame.iterrows()
-    }
-
-
-def headline_differences(old: Path, new: Path, rtol: float) -> tuple[list[Difference], int]:
-    """Every headline number (:data:`HEADLINE_TABLES`) that is missing from one tree or differs,
-    and how many numbers ``old`` holds."""
-    differences, compared = [], 0
-    for table, keys, numbers in HEADLINE_TABLES:
-        paths = old / table, new / table
-        missing = [not p.is_file() for p in paths]
-        if any(missing):
-            if not all(missing):
-                differences.append(Difference(table, "file", *map(_presence, missing)))
-            continue
-        before, after = (_rows(p, keys, numbers) for p in paths)
-        compared += len(before) * len(numbers)
-        for row in sorted(set(before) | set(after)):
-            if row not in before or row not in after:
-                presence = (row not in before, row not in after)
-                differences.append(Difference(table, row, *map(_presence, presence)))
-                continue
-            for column in numbers:
-                a, b = before[row].get(column), after[row].get(column)
-                if not _same(a, b, rtol):
-                    differences.append(Difference(table, f"{row}: {column}", a, b))
-    return differences, compared
-
-
-def _presence(missing: bool) -> str:
-    return "missing" if missing else "present"
-
-
-def run_files(tree: Path) -> dict[str, Path]:
-    """The planning runs' data files of a tree, by their run's sweep point (in today's keys,
-    :func:`pih.study_config.upgraded_point`: directory names changed with 0.4.0) and file name."""
-    from pih.study_config import upgraded_point
-
-    files = {}
-    for rollouts in sorted((tree / "planning").glob("*/rollouts.parquet")):
-        point = point_key(upgraded_point(read_provenance(rollouts)["sweep_point"]))
-        for data in [rollouts, *sorted(rollouts.parent.glob("redeploy_*.parquet"))]:
-            files[f"{point} {data.name}"] = data
-    return files
-
-
-def _same_data(a: Path, b: Path) -> bool:
-    """Whether two run files hold the same table, or agree in every column both have (a newer
-    version adds columns, e.g. ``simulated_hole_*`` in 0.4.0)."""
-    if input_sha256(a) == input_sha256(b):
-        return True
-    before, after = pd.read_parquet(a), pd.read_parquet(b)
-    shared = [c for c in before.columns if c in after.columns]
-    return len(before) == len(after) and before[shared].equals(after[shared])
-
-
-def run_differences(old: Path, new: Path) -> Iterator[Difference]:
-    """Every planning run file whose data (the table, not its provenance) differs or is missing,
-    named by its path in the tree that has it (the new one when both do)."""
-    before, after = run_files(old), run_files(new)
-    for name in sorted(set(before) | set(after)):
-        where = after.get(name, before.get(name))
-        tree = new if name in after else old
-        label = str(where.relative_to(tree))
-        if name not in before or name not in after:
-            yield Difference(
-                label, "run file", _presence(name not in before), _presence(name not in after)
-            )
-        elif not _same_data(before[name], after[name]):
-            yield Difference(label, "data", "one table", "another")
-
-
-def compare(old: Path, new: Path, rtol: float = 1e-9) -> tuple[list[Difference], int]:
-    """The differences between two result trees and how many items were compared."""
-    for tree in (old, new):
-        if not (tree / "planning").is_dir() and not (tree / "validation").is_dir():
-            raise FileNotFoundError(f"{tree}: not a results tree (no planning/ or validation/)")
-    differences, compared = headline_differences(old, new, rtol)
-    differences += run_differences(old, new)
-    return differences, compared + len(set(run_files(old)) | set(run_files(new)))
 
 
 def expected_runs(config_files: tuple[str, ...]) -> dict[str, dict[str, object]]:

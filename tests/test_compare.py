@@ -1,0 +1,212 @@
+"""pih compare: whether a study reproduced another, at the level of its conclusions and of its
+data, and what the provenance says about why the data differ."""
+
+import shutil
+
+import pandas as pd
+
+from pih.__main__ import main
+from pih.compare import compare
+
+
+def tree(root):
+    """A small results tree: the robustness and paired tables and two runs' data."""
+    summary = root / "planning" / "summary"
+    summary.mkdir(parents=True)
+    pd.DataFrame(
+        {
+            "method": ["bilevel/deepest_explored", "one_level"],
+            "start_std_m": [0.001, 0.001],
+            "runs": [11, 11],
+            "deploy_success_rate": [0.8, 0.2],
+            "deploy_ci_low": [0.5, 0.05],
+            "deploy_ci_high": [0.94, 0.5],
+            "runs_all_inserted": [6, 0],
+        }
+    ).to_parquet(summary / "robustness.parquet")
+    pd.DataFrame(
+        {
+            "method": ["bilevel/deepest_explored"],
+            "versus": ["one_level"],
+            "dimension": ["all"],
+            "level": ["all"],
+            "pairs": [11],
+            "better": [9],
+            "worse": [0],
+            "tied": [2],
+            "mean_difference": [0.6],
+            "sign_test_p": [0.0039],
+        }
+    ).to_parquet(summary / "paired.parquet")
+    for start in (-0.04, -0.03):
+        run_file(root / "planning" / f"start~{start}_seed~0" / "rollouts.parquet", start)
+    return root
+
+
+def run_file(path, start, success=True, point=None, **columns):
+    """A run's ``rollouts.parquet`` with the provenance that names its sweep point."""
+    from pih.outputs import write_table
+    from pih.provenance import record
+
+    point = point or {"planner.start_x_m": start, "planner.goal": "deepest_explored"}
+    rows = pd.DataFrame({"phase": ["deploy"], "success": [success], **columns})
+    units = {c: ("1", c) for c in rows.columns}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_table(rows, path, record("plan", point=point), units)
+
+
+def validation_table(path, r_f_x):
+    pd.DataFrame(
+        {"variant": ["hydroelastic"], "alignment": ["chamfer_start"], "offset": ["1 mm"]}
+        | {"r_f_x": [r_f_x], "r_f_z": [0.9]}
+        | {c: [5.0] for c in ("rel_err_initial_f_x_pct", "rel_err_final_f_x_pct")}
+        | {c: [5.0] for c in ("rel_err_initial_f_z_pct", "rel_err_final_f_z_pct")}
+        | {"rel_err_final_theta_pct": [1.0]}
+    ).to_parquet(path)
+
+
+def copy(old, new):
+    shutil.copytree(old, new)
+    return new
+
+
+def test_identical_trees_reproduce_at_both_levels(tmp_path, capsys):
+    old = tree(tmp_path / "old")
+    new = copy(old, tmp_path / "new")
+    result = compare(old, new)
+    assert result.differences == [] and result.items == 2 * 5 + 6 + 2
+    assert result.conclusions_hold and len(result.checks) == 2 + 1 and result.causes == []
+    assert main(["compare", str(old), str(new)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == "data: 0 of 18 items differ: the same (within --rtol 1e-09)"
+    assert out[1].startswith("conclusions: 3 of 3 hold") and out[1].endswith(
+        "reproduced " + str(old)
+    )
+
+
+def test_changed_data_with_the_same_conclusions_reproduce(tmp_path, capsys):
+    old = tree(tmp_path / "old")
+    new = copy(old, tmp_path / "new")
+    robustness = new / "planning" / "summary" / "robustness.parquet"
+    pd.read_parquet(robustness).assign(deploy_success_rate=[0.7, 0.2]).to_parquet(robustness)
+    run_file(new / "planning" / "start~-0.03_seed~0" / "rollouts.parquet", -0.03, success=False)
+    (new / "planning" / "start~-0.04_seed~0" / "rollouts.parquet").unlink()
+    assert main(["compare", str(old), str(new)]) == 0  # 0.7 is inside [0.5, 0.94]
+    out = capsys.readouterr().out.splitlines()
+    assert out[:3] == [
+        (
+            "planning/summary/robustness.parquet: method=bilevel/deepest_explored, "
+            "start_std_m=0.001, model_error=none: deploy_success_rate: 0.8 -> 0.7"
+        ),
+        "planning/start~-0.03_seed~0/rollouts.parquet: data: one table -> another",
+        "planning/start~-0.04_seed~0/rollouts.parquet: run file: present -> missing",
+    ]
+    assert out[3] == "data: 3 of 18 items differ: NOT the same (within --rtol 1e-09)"
+    assert out[-1].startswith("conclusions: 3 of 3 hold")
+    # A tolerance admits a small difference in numbers (not in run data).
+    pd.read_parquet(robustness).assign(deploy_success_rate=[0.8 + 1e-12, 0.2]).to_parquet(
+        robustness
+    )
+    assert all("robustness" not in d.where for d in compare(old, new).differences)
+
+
+def test_a_rate_outside_the_interval_or_a_flipped_pair_is_not_reproduced(tmp_path, capsys):
+    old = tree(tmp_path / "old")
+    new = copy(old, tmp_path / "new")
+    robustness = new / "planning" / "summary" / "robustness.parquet"
+    pd.read_parquet(robustness).assign(deploy_success_rate=[0.3, 0.2]).to_parquet(robustness)
+    paired = new / "planning" / "summary" / "paired.parquet"
+    pd.read_parquet(paired).assign(better=[1], worse=[3]).to_parquet(paired)
+    assert main(["compare", str(old), str(new)]) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert (
+        "FAILS: planning/summary/robustness.parquet: method=bilevel/deepest_explored, "
+        "start_std_m=0.001, model_error=none: deployment success 0.3 inside [0.5, 0.94]" in out
+    )
+    assert any(
+        line.startswith("FAILS: planning/summary/paired.parquet")
+        and line.endswith("sign (pairs better/worse) + (9/0) -> - (1/3)")
+        for line in out
+    )
+    assert out[-1].startswith("conclusions: 1 of 3 hold") and "NOT reproduced" in out[-1]
+
+
+def test_a_missing_row_counts_every_number_it_holds(tmp_path):
+    old = tree(tmp_path / "old")
+    new = copy(old, tmp_path / "new")
+    robustness = new / "planning" / "summary" / "robustness.parquet"
+    pd.read_parquet(robustness).iloc[:1].to_parquet(robustness)
+    result = compare(old, new)
+    assert result.differing_items() == 5 <= result.items == 18
+    assert not result.conclusions_hold  # the row's rate is missing: its check fails
+
+
+def test_validation_r_holds_within_its_tolerance(tmp_path):
+    old = tree(tmp_path / "old")
+    (old / "validation").mkdir()
+    validation_table(old / "validation" / "comparison.parquet", 0.95)
+    new = copy(old, tmp_path / "new")
+    validation_table(new / "validation" / "comparison.parquet", 0.96)
+    assert compare(old, new).conclusions_hold
+    assert not compare(old, new, r_tolerance=0.005).conclusions_hold
+    validation_table(new / "validation" / "comparison.parquet", 0.90)
+    failed = [c for c in compare(old, new).checks if not c.holds]
+    assert [c.what for c in failed] == ["r_f_x 0.9500 -> 0.9000 (within 0.02)"]
+
+
+def test_the_likely_cause_of_a_data_difference_comes_from_the_provenance(tmp_path, capsys):
+    from pih.outputs import read_provenance, write_table
+    from pih.provenance import record
+
+    new = tree(tmp_path / "new")
+    old = copy(new, tmp_path / "old")
+    now = read_provenance(new / "planning" / "start~-0.04_seed~0" / "rollouts.parquet")
+    for start, success in ((-0.04, False), (-0.03, True)):
+        point = {"planner.start_x_m": start, "planner.goal": "deepest_explored"}
+        made = record("plan", point=point)
+        made["packages"]["drake"] = "1.51.1"
+        del made["machine"]  # as before 0.5.0
+        rows = pd.DataFrame({"phase": ["deploy"], "success": [success]})
+        path = old / "planning" / f"start~{start}_seed~0" / "rollouts.parquet"
+        write_table(rows, path, made, {c: ("1", c) for c in rows.columns})
+    main(["compare", str(old), str(new)])
+    out = capsys.readouterr().out.splitlines()
+    causes = next(line for line in out if line.startswith("data: likely causes"))
+    assert f"another Drake (1.51.1 -> {now['packages']['drake']})" in causes
+    assert f"another CPU (not recorded -> {now['machine']['cpu']})" in causes
+    assert "rollout code" not in causes
+
+
+def test_a_tree_of_an_older_version_reproduces_on_what_both_record(tmp_path, capsys):
+    """0.3.0 named run directories ``method~…_rule~…`` and its points ``planner.method`` and
+    ``planner.outer.rule``; its robustness table had no ``model_error`` key and its rollouts no
+    ``simulated_hole_*`` columns. Compared with a 0.4.0 tree, the same runs are the same runs."""
+    new = tree(tmp_path / "new")
+    for start in (-0.04, -0.03):
+        path = new / "planning" / f"start~{start}_seed~0" / "rollouts.parquet"
+        run_file(path, start, simulated_hole_x_m=[0.0])
+    robustness = new / "planning" / "summary" / "robustness.parquet"
+    pd.read_parquet(robustness).assign(model_error="none").to_parquet(robustness)
+    old = tree(tmp_path / "old")
+    shutil.rmtree(old / "planning" / "start~-0.04_seed~0")
+    shutil.rmtree(old / "planning" / "start~-0.03_seed~0")
+    for start in (-0.04, -0.03):
+        point = {
+            "planner.start_x_m": start,
+            "planner.method": "bilevel",
+            "planner.outer.rule": "deepest_explored",
+        }
+        path = old / "planning" / f"start~{start}_method~bilevel_rule~x" / "rollouts.parquet"
+        run_file(path, start, point=point, success=start < -0.035)
+    main(["compare", str(old), str(new)])
+    out = capsys.readouterr().out.splitlines()
+    # Only the run whose shared columns differ (success at -0.03) is named, by its new path.
+    assert [line for line in out if not line.startswith(("data:", "conclusions:"))] == [
+        "planning/start~-0.03_seed~0/rollouts.parquet: data: one table -> another"
+    ]
+
+
+def test_a_tree_that_is_not_one_is_one_line(tmp_path, capsys):
+    assert main(["compare", str(tmp_path), str(tmp_path / "nope")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a results tree" in err[0]
