@@ -14,7 +14,7 @@ study's planner scene (not the validation's deeper hole).
 
     python benchmarks/solvers.py [--iterations 10] [--start-x-m -0.031 -0.037] [--seed 4 1]
                                  [--configfile config/config.yaml my_variants.yaml]
-                                 [--variants hydroelastic similar tamsi_scene ...]
+                                 [--variants hydroelastic similar sap ...]
 """
 
 from __future__ import annotations

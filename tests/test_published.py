@@ -363,3 +363,35 @@ def test_the_step_check_replays_the_deployment_trials_a_study_reports(step_conve
     nominal = trials[trials["source"] == "training start"].groupby("run")["start_x_m"].first()
     offset = trials[trials["source"] != "training start"]
     assert (offset["start_x_m"] != offset["run"].map(nominal)).all()
+
+
+@pytest.mark.parametrize("study", PUBLISHED, ids=lambda s: s.name)
+def test_the_first_iterations_draws_are_bit_identical_on_this_machine(study):
+    """Same config and seed, same draws on any machine (docs/reproducibility.md): every published
+    run's first training batch (sensed hole, starts, targets, weights W ~ N(0, σ_W)) is drawn
+    again here, without simulating, and must equal the recorded one to the bit, whatever CPU or
+    BLAS kernel made the run."""
+    import numpy as np
+
+    from pih.planner import Planner, Streams, Training
+    from pih.run_record import Phase, phase_rows
+
+    columns = {
+        "sensed_hole": ("sensed_hole_x_m", "sensed_hole_y_m", "sensed_hole_theta_rad"),
+        "start": ("start_x_m", "start_y_m", "start_theta_rad"),
+        "target": ("target_x_m", "target_y_m", "target_theta_rad"),
+    }
+    for path in sorted((ROOT / study.directory / "planning").glob("*/rollouts.parquet")):
+        run = RecordedRun.read(path)
+        planner = Planner.from_configs(run.scene, run.planner, run.record["seed_key"])
+        training, streams = Training.start(planner), Streams.of(planner.seeds)
+        sensed = planner.sense_hole(streams.noise)
+        target = planner.target(training.outer, sensed)
+        batch = planner.training_batch(training, target, sensed, sensed, streams.start)
+        first = phase_rows(run.rollouts, Phase.TRAIN).query("iteration == 1")
+        drawn = batch[: len(first)]
+        for name, names in columns.items():
+            recorded = first[list(names)].to_numpy()
+            assert np.array_equal(np.array([getattr(r, name) for r in drawn]), recorded), path
+        recorded_weights = np.stack(first["weights"].to_numpy())
+        assert np.array_equal(np.array([r.weights for r in drawn]), recorded_weights), path

@@ -4,4 +4,4 @@ Reproduces and extends Yang et al., "A Planning Framework for Robotic Insertion 
 Hydroelastic Contact Model", Machines 11(7):741, 2023.
 """
 
-__version__ = "0.4.0"
+__version__ = "0.5.0.dev0"
