@@ -8,7 +8,7 @@ import os
 
 from snakemake.utils import min_version
 
-from pih.workflow import preloaded_allocator
+from pih.workflow.jobs import preloaded_allocator
 
 min_version("9.0")
 
@@ -22,7 +22,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 # output's provenance names the allocator that ran.
 os.environ.setdefault("LD_PRELOAD", preloaded_allocator())
 
-from pih.study_config import load_config_file, stop_on_config_error
+from pih.study.config import load_config_file, stop_on_config_error
 
 # The default study's config, found beside this Snakefile: `snakemake -s REPO/Snakefile -d DIR`
 # runs a study in its own working directory DIR (docs/workflow.md); named relative to the working

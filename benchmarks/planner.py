@@ -27,11 +27,11 @@ import sys
 import time
 
 from pih.config import from_mapping, to_mapping
-from pih.planner import Planner
-from pih.planner_config import OuterConfig, PlannerConfig, replace
-from pih.scene_config import SceneConfig
-from pih.study_config import load_config
-from pih.workflow import preloaded_allocator
+from pih.planning.config import OuterConfig, PlannerConfig, replace
+from pih.planning.planner import Planner
+from pih.scene.config import SceneConfig
+from pih.study.config import load_config
+from pih.workflow.jobs import preloaded_allocator
 
 
 def one_run(spec: dict) -> None:

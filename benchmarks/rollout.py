@@ -19,10 +19,10 @@ import time
 
 import numpy as np
 
-from pih.provenance import allocator
-from pih.scene import PegInHoleScene
-from pih.scene_config import SceneConfig
-from pih.trace import RobotTrajectory
+from pih.records.provenance import allocator
+from pih.scene.config import SceneConfig
+from pih.scene.simulation import PegInHoleScene
+from pih.scene.trace import RobotTrajectory
 
 
 def planning_rollout(scene: PegInHoleScene, duration_s: float = 3.5) -> RobotTrajectory:

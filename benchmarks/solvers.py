@@ -26,12 +26,12 @@ from collections import Counter
 import numpy as np
 from snakemake.utils import update_config
 
-from pih.planner import Planner
-from pih.planner_config import OuterConfig, PlannerConfig, replace
-from pih.scene import PegInHoleScene
-from pih.scene_config import SceneConfig
-from pih.study_config import load_yaml_strictly, scene_with
-from pih.trace import RobotTrajectory, Trace
+from pih.planning.config import OuterConfig, PlannerConfig, replace
+from pih.planning.planner import Planner
+from pih.scene.config import SceneConfig
+from pih.scene.simulation import PegInHoleScene
+from pih.scene.trace import RobotTrajectory, Trace
+from pih.study.config import load_yaml_strictly, scene_with
 
 
 def scene_variants(configfiles: list[str]) -> tuple[SceneConfig, dict[str, SceneConfig]]:

@@ -40,12 +40,12 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from pih.config import from_mapping, to_mapping
-from pih.planner import Planner, RolloutWorkers
-from pih.planner_config import ONE_LEVEL, PlannerConfig
-from pih.pooling import REDEPLOY_PATTERNS
-from pih.run_record import RecordedRun, recorded_rollout, succeeded
-from pih.scene_config import SceneConfig
-from pih.study_config import load_config
+from pih.planning.config import ONE_LEVEL, PlannerConfig
+from pih.planning.planner import Planner, RolloutWorkers
+from pih.planning.run_record import RecordedRun, recorded_rollout, succeeded
+from pih.scene.config import SceneConfig
+from pih.study.config import load_config
+from pih.study.pooling import REDEPLOY_PATTERNS
 
 SET_PATH = Path(__file__).with_name("step_convergence_set.parquet")
 SET_SIZE = 240

@@ -6,8 +6,8 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 import pytest
 
-from pih.scene import PegInHoleScene
-from pih.scene_config import SceneConfig
+from pih.scene.config import SceneConfig
+from pih.scene.simulation import PegInHoleScene
 
 
 @pytest.fixture(scope="session")

@@ -27,16 +27,16 @@ import yaml
 import pih
 from pih.__main__ import main
 from pih.config import ConfigError
-from pih.outputs import TEMPORARY_DIR, atomic_path, write_text, write_with
-from pih.study_config import (
+from pih.records.outputs import TEMPORARY_DIR, atomic_path, write_text, write_with
+from pih.study.config import (
     MAX_SWEEP_POINTS,
-    check_schema,
     check_study,
     load_config_file,
     stop_on_config_error,
     study_points,
     sweep_points,
 )
+from pih.study.schema import check_schema
 
 ROOT = Path(__file__).resolve().parents[1]
 SMOKE = yaml.safe_load((ROOT / "config" / "smoke.yaml").read_text())
@@ -250,12 +250,12 @@ def test_a_swept_value_out_of_range_names_the_sweep_point():
 
 
 def test_a_million_point_sweep_stops_with_its_count_before_any_point_is_built(monkeypatch):
-    import pih.study_config
+    import pih.study.config
 
     def no_product(*args):
         raise AssertionError("the points were being built")
 
-    monkeypatch.setattr(pih.study_config.itertools, "product", no_product)
+    monkeypatch.setattr(pih.study.config.itertools, "product", no_product)
     config = smoke()
     config["sweep"] = {f"planner.k{i}": list(range(10)) for i in range(6)}
     start = time.perf_counter()
@@ -320,7 +320,7 @@ def test_a_bounded_count_set_by_a_variant_names_it():
 WRITER = """
 import sys, time
 from pathlib import Path
-from pih.outputs import write_text, write_with
+from pih.records.outputs import write_text, write_with
 
 write_text("results/done.md", "a finished output\\n")
 
@@ -335,10 +335,10 @@ write_with("results/run/partial.rrd", slow)
 RRD_WRITER = """
 import sys
 import numpy as np
-from pih.outputs import write_text
-from pih.recordings import record_insertion
-from pih.trace import Trace
-from pih.scene_config import SceneConfig
+from pih.records.outputs import write_text
+from pih.study.recordings import record_insertion
+from pih.scene.trace import Trace
+from pih.scene.config import SceneConfig
 
 write_text("results/done.md", "a finished output\\n")
 n = int(sys.argv[1])
@@ -440,7 +440,7 @@ def test_a_recording_killed_mid_write_leaves_nothing_in_results(tmp_path, monkey
 
 
 def test_a_write_outside_the_working_directory_cleans_up_beside_the_output(tmp_path, monkeypatch):
-    from pih.outputs import _HOST
+    from pih.records.outputs import _HOST
 
     work, out = tmp_path / "work", tmp_path / "elsewhere"
     work.mkdir()
@@ -548,12 +548,12 @@ def test_show_and_provenance_of_a_record_without_run_id(tmp_path, capsys):
 def test_an_unexpected_error_is_one_line_unless_its_traceback_is_asked_for(
     tmp_path, capsys, monkeypatch, error, line
 ):
-    import pih.__main__
+    import pih.cli.show
 
     def fail(*args):
         raise error
 
-    monkeypatch.setattr(pih.__main__, "_show", fail)
+    monkeypatch.setattr(pih.cli.show, "show", fail)
     assert main(["show", str(tmp_path)]) == 1
     assert capsys.readouterr().err == line + "\n"
     monkeypatch.setenv("PIH_TRACEBACK", "1")
@@ -801,7 +801,7 @@ def test_a_config_file_snakemake_cannot_read_is_one_line_naming_it(workdir, text
 
 
 def test_the_console_names_the_config_file_snakemake_could_not_read(tmp_path, monkeypatch):
-    from pih.console import config_file_error, configfile_arguments
+    from pih.workflow.console import config_file_error, configfile_arguments
 
     good, bad = tmp_path / "good.yaml", tmp_path / "bad.yaml"
     good.write_text("planner: {iterations: 3}\n")

@@ -6,8 +6,8 @@ import pandas as pd
 import pytest
 
 from pih.__main__ import main
-from pih.outputs import read_provenance, write_table
-from pih.provenance import record
+from pih.records.outputs import read_provenance, write_table
+from pih.records.provenance import record
 
 
 @pytest.fixture
@@ -54,11 +54,11 @@ def planning_run():
     """A two-iteration planning run (deploying its latest inserting mean and its final mean)
     with the provenance a plan job writes: its config, seed key and cost divisors."""
     from pih.config import to_mapping
-    from pih.dmp import DmpConfig
-    from pih.optimizers import OptimizerConfig
-    from pih.planner import Planner
-    from pih.planner_config import PlannerConfig, replace
-    from pih.scene_config import SceneConfig
+    from pih.planning.config import PlannerConfig, replace
+    from pih.planning.dmp import DmpConfig
+    from pih.planning.optimizers import OptimizerConfig
+    from pih.planning.planner import Planner
+    from pih.scene.config import SceneConfig
 
     config = replace(
         PlannerConfig(),
@@ -80,14 +80,14 @@ def planning_run():
 
 
 def write_run(directory, run, provenance):
-    from pih.run_record import PATH_COLUMNS, ROLLOUT_COLUMNS
+    from pih.planning.run_record import PATH_COLUMNS, ROLLOUT_COLUMNS
 
     write_table(run.rollouts, directory / "rollouts.parquet", provenance, ROLLOUT_COLUMNS)
     write_table(run.best_paths, directory / "best_paths.parquet", provenance, PATH_COLUMNS)
 
 
 def test_plot_draws_one_planning_run(tmp_path, capsys, planning_run):
-    from pih.run_record import ROLLOUT_COLUMNS
+    from pih.planning.run_record import ROLLOUT_COLUMNS
 
     run, provenance = planning_run
     write_run(tmp_path, run, provenance)
@@ -202,7 +202,7 @@ def write_study_run(
 ):
     """A planning run of study ``study`` under ``root``: the fixture's run with these planner
     settings, its deployments all inserted or not; with a variant, its name and overrides."""
-    from pih.run_record import ROLLOUT_COLUMNS
+    from pih.planning.run_record import ROLLOUT_COLUMNS
 
     run, provenance = planning_run
     config = copy.deepcopy(provenance["config"])
@@ -223,7 +223,7 @@ def write_study_run(
 
 
 def test_aggregate_pools_studies_counting_each_training_once(tmp_path, capsys, planning_run):
-    from pih.run_record import ROLLOUT_COLUMNS
+    from pih.planning.run_record import ROLLOUT_COLUMNS
 
     def study_run(study, **settings):
         return write_study_run(tmp_path, planning_run, study, **settings)
@@ -357,10 +357,10 @@ def test_show_reads_every_output_type_with_its_provenance(tmp_path, capsys, tabl
     import matplotlib.pyplot as plt
     from test_recordings import _insertion_trace
 
-    from pih import plots
-    from pih.outputs import markdown_table, write_text
-    from pih.recordings import record_insertion
-    from pih.scene_config import SceneConfig
+    from pih.records.outputs import markdown_table, write_text
+    from pih.scene.config import SceneConfig
+    from pih.study import plots
+    from pih.study.recordings import record_insertion
 
     provenance = record("test", seeds={"noise": 7})
     figure, _ = plt.subplots(figsize=(2, 1))
@@ -427,8 +427,8 @@ def test_show_names_a_missing_file_and_the_closest_one(tmp_path, capsys, table):
 def test_run_figure_titles_every_panel_counts_whole_iterations_and_names_only_what_it_draws(
     planning_run,
 ):
-    from pih import plots
-    from pih.scene_config import SceneConfig
+    from pih.scene.config import SceneConfig
+    from pih.study import plots
 
     run, _ = planning_run
     # No mean rollout inserted: the legend must not name "mean inserted".

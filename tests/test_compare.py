@@ -6,7 +6,7 @@ import shutil
 import pandas as pd
 
 from pih.__main__ import main
-from pih.compare import compare
+from pih.study.compare import compare
 
 
 def tree(root):
@@ -45,8 +45,8 @@ def tree(root):
 
 def run_file(path, start, success=True, point=None, **columns):
     """A run's ``rollouts.parquet`` with the provenance that names its sweep point."""
-    from pih.outputs import write_table
-    from pih.provenance import record
+    from pih.records.outputs import write_table
+    from pih.records.provenance import record
 
     point = point or {"planner.start_x_m": start, "planner.goal": "deepest_explored"}
     rows = pd.DataFrame({"phase": ["deploy"], "success": [success], **columns})
@@ -155,8 +155,8 @@ def test_validation_r_holds_within_its_tolerance(tmp_path):
 
 
 def test_the_likely_cause_of_a_data_difference_comes_from_the_provenance(tmp_path, capsys):
-    from pih.outputs import read_provenance, write_table
-    from pih.provenance import record
+    from pih.records.outputs import read_provenance, write_table
+    from pih.records.provenance import record
 
     new = tree(tmp_path / "new")
     old = copy(new, tmp_path / "old")

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pih.dmp import Dmp, DmpConfig
+from pih.planning.dmp import Dmp, DmpConfig
 
 CONFIG = DmpConfig()
 T = CONFIG.duration_s

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pih.optimizers import OPTIMIZER_NAMES, EliteAveraging, OptimizerConfig, make_optimizer
+from pih.planning.optimizers import OPTIMIZER_NAMES, EliteAveraging, OptimizerConfig, make_optimizer
 
 DIMENSION = 10
 TARGET = np.linspace(-1.0, 1.0, DIMENSION)

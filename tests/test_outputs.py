@@ -9,9 +9,9 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
-from pih import provenance
 from pih.__main__ import main
-from pih.outputs import (
+from pih.records import provenance
+from pih.records.outputs import (
     TRACE_COLUMNS,
     provenance_index,
     read_provenance,
@@ -21,8 +21,8 @@ from pih.outputs import (
     write_text,
     write_trace,
 )
-from pih.provenance import file_sha256, input_sha256
-from pih.trace import RobotTrajectory
+from pih.records.provenance import file_sha256, input_sha256
+from pih.scene.trace import RobotTrajectory
 
 RECORD = provenance.record("job", config={"a": 1})
 

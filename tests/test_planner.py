@@ -8,15 +8,15 @@ import pandas as pd
 import pytest
 
 from pih.config import ConfigError, from_mapping, to_mapping
-from pih.costs import CostBalance, CostTerms, hole_distance, inner_cost
-from pih.dmp import DmpConfig
-from pih.optimizers import OptimizerConfig
-from pih.outer import CLEAN_OVERLAP_M, OuterLevel, outer_goal
-from pih.planner import Planner, run_seeds
-from pih.planner_config import CostConfig, OuterConfig, PlannerConfig, SensingConfig, replace
-from pih.run_record import recorded_rollout
-from pih.scene_config import SceneConfig
-from pih.study_config import seed_key
+from pih.planning.config import CostConfig, OuterConfig, PlannerConfig, SensingConfig, replace
+from pih.planning.costs import CostBalance, CostTerms, hole_distance, inner_cost
+from pih.planning.dmp import DmpConfig
+from pih.planning.optimizers import OptimizerConfig
+from pih.planning.outer import CLEAN_OVERLAP_M, OuterLevel, outer_goal
+from pih.planning.planner import Planner, run_seeds
+from pih.planning.run_record import recorded_rollout
+from pih.scene.config import SceneConfig
+from pih.study.config import seed_key
 
 SENSING = SensingConfig(hole_std=(0.005, 0.001, 0.02))
 
@@ -189,7 +189,7 @@ def test_bad_planner_config_is_rejected_before_simulation(edit, message):
 def test_the_study_config_and_the_python_defaults_are_the_same_table_4_values():
     import yaml
 
-    from pih.study_config import resolve
+    from pih.study.config import resolve
 
     study = yaml.safe_load((Path(__file__).parents[1] / "config" / "config.yaml").read_text())
     scene, planner = resolve(study)
@@ -415,7 +415,7 @@ def test_inserted_is_judged_by_the_sensed_depth_only():
 
 
 def _trace_at(poses: np.ndarray, overlap: float = 0.0):
-    from pih.trace import Trace
+    from pih.scene.trace import Trace
 
     n = len(poses)
     zeros = np.zeros((n, 3))

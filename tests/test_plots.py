@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 from PIL import Image
 
-from pih import plots
-from pih.provenance import record
+from pih.records.provenance import record
+from pih.study import plots
 
 
 def _saved(tmp_path, name):
@@ -192,7 +192,7 @@ def test_deploy_success_rows_name_their_method_and_methods_differ_by_marker():
 
 
 def test_best_paths_title_is_centred_over_the_panels():
-    from pih.scene_config import HoleConfig
+    from pih.scene.config import HoleConfig
 
     paths = pd.DataFrame(
         {

@@ -2,8 +2,8 @@
 
 import textwrap
 
-from pih import provenance
-from pih.provenance import behaviour_dump
+from pih.records import provenance
+from pih.records.provenance import behaviour_dump
 
 MODULE = textwrap.dedent(
     '''
@@ -42,7 +42,7 @@ def test_a_changed_expression_or_name_does_something_else():
 def test_the_rollout_hash_reads_every_rollout_module():
     assert len(provenance.rollout_code_hash()) == 64
     for name in provenance.ROLLOUT_MODULES:
-        assert (provenance.LIBRARY_ROOT / f"{name}.py").is_file(), name
+        assert provenance.module_path(name).is_file(), name
 
 
 def test_every_record_names_the_cpu_and_numpys_blas_kernel():

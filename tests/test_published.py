@@ -8,7 +8,8 @@ import pandas as pd
 import pytest
 
 from pih.__main__ import main
-from pih.published import (
+from pih.planning.run_record import RecordedRun
+from pih.study.published import (
     PUBLISHED_DIR,
     PUBLISHED_STUDIES,
     README_BEGIN,
@@ -18,14 +19,13 @@ from pih.published import (
     results_block,
     stale_reasons,
 )
-from pih.run_record import RecordedRun
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_stale_published_runs_are_named(tmp_path):
-    from pih.outputs import write_table
-    from pih.provenance import record
+    from pih.records.outputs import write_table
+    from pih.records.provenance import record
 
     expected = {
         point_key(p): {"scene": {"solver": {"time_step_s": 0.001}}, "planner": {"seed": p["s"]}}
@@ -81,9 +81,9 @@ def test_the_published_study_is_what_the_config_and_code_compute(study):
 def test_publish_copies_a_studys_run_whole_and_nothing_else(tmp_path):
     """A tree that is the study's run (its one sweep point, resolved config and this rollout
     code) is copied by the study's globs into published/<name>, replacing the old copy."""
-    from pih.outputs import write_table
-    from pih.provenance import record
-    from pih.published import PublishedStudy, publish
+    from pih.records.outputs import write_table
+    from pih.records.provenance import record
+    from pih.study.published import PublishedStudy, publish
 
     shutil.copytree(ROOT / "config", tmp_path / "config")
     (tmp_path / "config" / "one.yaml").write_text(
@@ -115,8 +115,8 @@ def test_publish_copies_a_studys_run_whole_and_nothing_else(tmp_path):
 def test_publish_refuses_a_tree_that_is_not_the_studys_run(tmp_path, capsys, monkeypatch):
     """A results tree of another study (here: one run of a made-up sweep point) is refused in
     one line before anything is copied; the published copy and README stay as they were."""
-    from pih.outputs import write_table
-    from pih.provenance import record
+    from pih.records.outputs import write_table
+    from pih.records.provenance import record
 
     results = tmp_path / "results"
     provenance = record("plan", point={"planner.seed": 7}, config={"scene": {}, "planner": {}})
@@ -143,9 +143,9 @@ def test_publish_refuses_a_tree_that_is_not_the_studys_run(tmp_path, capsys, mon
 
 
 def test_readme_results_are_generated_from_the_published_tables(tmp_path):
-    from pih.outputs import write_table
-    from pih.provenance import record
-    from pih.published import README_BEGIN, README_END, readme_with_results, results_block
+    from pih.records.outputs import write_table
+    from pih.records.provenance import record
+    from pih.study.published import README_BEGIN, README_END, readme_with_results, results_block
 
     summary = tmp_path / "planning" / "summary"
     summary.mkdir(parents=True)
@@ -373,8 +373,8 @@ def test_the_first_iterations_draws_are_bit_identical_on_this_machine(study):
     BLAS kernel made the run."""
     import numpy as np
 
-    from pih.planner import Planner, Streams, Training
-    from pih.run_record import Phase, phase_rows
+    from pih.planning.planner import Planner, Streams, Training
+    from pih.planning.run_record import Phase, phase_rows
 
     columns = {
         "sensed_hole": ("sensed_hole_x_m", "sensed_hole_y_m", "sensed_hole_theta_rad"),

@@ -3,7 +3,7 @@
 import pandas as pd
 import pytest
 
-from pih.row_query import QueryError, select_rows
+from pih.cli.row_query import QueryError, select_rows
 
 FRAME = pd.DataFrame(
     {

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from pih.config import ConfigError, from_mapping, to_mapping
-from pih.frames import offset_along_axis, pose_matrix, pose_vector
-from pih.scene import PegInHoleScene, _Snapshot
-from pih.scene_config import SceneConfig, wall_profile
-from pih.trace import RobotTrajectory, TrajectoryError
+from pih.scene.config import SceneConfig, wall_profile
+from pih.scene.frames import offset_along_axis, pose_matrix, pose_vector
+from pih.scene.simulation import PegInHoleScene, _Snapshot
+from pih.scene.trace import RobotTrajectory, TrajectoryError
 
 # The retry tests run at 2 ms with the retry at 1 ms: the mechanism does not depend on the step,
 # and the stiff spring that diverges at 2 ms (below) does not at the default 1 ms.

@@ -13,10 +13,10 @@ from test_planner import COARSE, short_config
 ROOT = Path(__file__).resolve().parents[1]
 
 from pih.config import ConfigError, from_mapping, to_mapping
-from pih.planner import Planner
-from pih.planner_config import PlannerConfig, SensingConfig, replace
-from pih.run_record import Rollout, recorded_pose, recorded_rollout
-from pih.study_config import seed_key
+from pih.planning.config import PlannerConfig, SensingConfig, replace
+from pih.planning.planner import Planner
+from pih.planning.run_record import Rollout, recorded_pose, recorded_rollout
+from pih.study.config import seed_key
 
 
 def planner_from(simulated_hole: object = "true_hole", **sensing: object) -> PlannerConfig:
@@ -181,7 +181,7 @@ def test_a_run_redeployed_on_a_moved_hole_senses_it_there(runs_by_mode):
 def test_model_errors_are_checked_before_any_job():
     import yaml
 
-    from pih.study_config import check_study, study_points
+    from pih.study.config import check_study, study_points
 
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     config["robustness"]["model_error"] = {"friction_low": {"material.friction": 0.5}}
@@ -198,8 +198,8 @@ def test_model_errors_are_checked_before_any_job():
 
 
 def test_model_errors_get_their_own_rows_and_pairs_and_leave_the_headline_alone():
-    from pih.aggregate import robustness_pairs, robustness_table
-    from pih.summary import model_error_rows, on_training_scene
+    from pih.study.aggregate import robustness_pairs, robustness_table
+    from pih.study.summary import model_error_rows, on_training_scene
 
     keys = ["planner.start_x_m", "planner.goal"]
     rows = []
@@ -270,8 +270,8 @@ def test_observation_noise_on_the_tip_reaches_the_outer_level_only_when_asked(ru
 def test_offset_start_pairs_are_split_by_the_simulator_mode_and_lead_the_summary():
     """From offset starts, one-level and bilevel are paired within each simulator mode (the
     modes are different designs: their points do not pool), and the summary quotes those."""
-    from pih.aggregate import robustness_pairs, robustness_table
-    from pih.summary import perturbed_pairs
+    from pih.study.aggregate import robustness_pairs, robustness_table
+    from pih.study.summary import perturbed_pairs
 
     keys = ["planner.start_x_m", "planner.goal", "planner.simulated_hole"]
     # (start, mode) -> (ours, one-level) from offset starts: ours wins on the true hole,

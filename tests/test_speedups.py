@@ -9,18 +9,18 @@ import sys
 import numpy as np
 import pytest
 
-from pih.provenance import allocator
-from pih.workflow import preloaded_allocator
+from pih.records.provenance import allocator
+from pih.workflow.jobs import preloaded_allocator
 
 # One contact-rich rollout: the tip pressed down onto the chamfer 1 mm beside the axis and on into
 # the hole (final pose and its hash printed as JSON).
 ROLLOUT = """
 import hashlib, json, sys
 import numpy as np
-from pih.provenance import allocator
-from pih.scene import PegInHoleScene
-from pih.trace import RobotTrajectory
-from pih.scene_config import SceneConfig
+from pih.records.provenance import allocator
+from pih.scene.simulation import PegInHoleScene
+from pih.scene.trace import RobotTrajectory
+from pih.scene.config import SceneConfig
 scene = PegInHoleScene(SceneConfig().replace(solver__sampled_output_ports=sys.argv[1] == "1"))
 hole = scene.config.hole
 t = np.arange(0.0, 1.5 + 1e-9, 0.01)

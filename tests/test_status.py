@@ -9,8 +9,9 @@ from pathlib import Path
 import pytest
 
 from pih.__main__ import main
-from pih.console import JobLines, duration, short_reason
-from pih.status import (
+from pih.study.config import load_config
+from pih.workflow.console import JobLines, duration, short_reason
+from pih.workflow.status import (
     Run,
     logged_configfiles,
     planning_names,
@@ -20,7 +21,6 @@ from pih.status import (
     time_left,
     validation_names,
 )
-from pih.study_config import load_config
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = [str(ROOT / "config" / "config.yaml"), str(ROOT / "config" / "smoke.yaml")]
@@ -185,12 +185,13 @@ def test_cli_without_configfile_takes_the_latest_runs_config_files(tmp_path, cap
 def test_cli_finds_the_default_config_in_pihs_checkout_else_says_where_to_run(
     tmp_path, capsys, monkeypatch
 ):
-    import pih.__main__
+    import pih.cli.status
 
     monkeypatch.chdir(tmp_path)  # a study's own directory: no config/ here
     assert main(["status", "."]) == 0
     assert f"(config {ROOT / 'config' / 'config.yaml'})" in capsys.readouterr().out
-    monkeypatch.setattr(pih.__main__, "__file__", str(tmp_path / "src" / "pih" / "__main__.py"))
+    fake = tmp_path / "src" / "pih" / "cli" / "status.py"
+    monkeypatch.setattr(pih.cli.status, "__file__", str(fake))
     assert main(["status", "."]) == 1
     err = capsys.readouterr().err
     assert err.startswith("pih status: no config/config.yaml here") and len(err.splitlines()) == 1

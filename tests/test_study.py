@@ -5,7 +5,10 @@ import math
 import pandas as pd
 import pytest
 
-from pih.aggregate import (
+from pih.config import ConfigError, to_mapping
+from pih.planning.config import PlannerConfig
+from pih.scene.config import SceneConfig
+from pih.study.aggregate import (
     ablation_table,
     cost_bands,
     figure_bands,
@@ -13,14 +16,10 @@ from pih.aggregate import (
     paired_table,
     robustness_pairs,
     robustness_table,
-    sign_test_p,
     success_table,
-    wilson_interval,
 )
-from pih.config import ConfigError, to_mapping
-from pih.planner_config import PlannerConfig
-from pih.scene_config import SceneConfig
-from pih.study_config import override, resolve, seed_key, sweep_points, variant_overrides
+from pih.study.config import override, resolve, seed_key, sweep_points, variant_overrides
+from pih.study.statistics import sign_test_p, wilson_interval
 
 
 def base_config() -> dict:
@@ -162,7 +161,7 @@ def test_paired_table_compares_methods_at_the_points_both_ran():
 
 
 def test_variant_pairs_compare_each_variant_with_the_reference_per_method():
-    from pih.aggregate import variant_pairs
+    from pih.study.aggregate import variant_pairs
 
     keys = ["planner.goal", "variant", "planner.seed"]
     summaries = pd.DataFrame(
@@ -296,7 +295,7 @@ def test_variants_are_named_overrides_swept_like_a_dimension():
 
 def test_validation_variants_apply_over_the_validation_scene_and_name_bad_keys():
     from pih.config import from_mapping
-    from pih.study_config import ValidationSection
+    from pih.study.config import ValidationSection
 
     section = ValidationSection(
         scene_overrides={"material.margin_m": 0.0, "hole.fillet_radius_m": 1e-4},
@@ -338,7 +337,7 @@ def test_validation_variants_apply_over_the_validation_scene_and_name_bad_keys()
 
 
 def test_a_command_line_config_file_replaces_the_validation_variants_whole(tmp_path):
-    from pih.study_config import read_config_files
+    from pih.study.config import read_config_files
 
     config = {
         "validation": {"offsets_m": [0.001], "variants": {"a": {}, "b": {}, "c": {}}},
@@ -353,7 +352,7 @@ def test_a_command_line_config_file_replaces_the_validation_variants_whole(tmp_p
 
 
 def test_deployments_that_only_repeat_a_training_rollout_are_recognised():
-    from pih.aggregate import repeats_training
+    from pih.study.aggregate import repeats_training
 
     def rows(phase, *poses):
         return pd.DataFrame(

@@ -3,7 +3,7 @@
 import numpy as np
 import pandas as pd
 
-from pih.summary import (
+from pih.study.summary import (
     PAPER_PEARSON_R,
     chosen_variants,
     pearson_table,

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from pih import whitney
-from pih.scene_config import SceneConfig
-from pih.trace import Trace
-from pih.validation import (
+from pih.scene.config import SceneConfig
+from pih.scene.trace import Trace
+from pih.validation.config import ValidationConfig
+from pih.validation.experiment import (
     choose_variants,
     compare,
     comparison_table,
@@ -14,7 +14,7 @@ from pih.validation import (
     to_whitney_frame,
     whitney_params,
 )
-from pih.validation_config import ValidationConfig
+from pih.whitney import theory as whitney
 
 SCENE = SceneConfig()
 CONFIG = ValidationConfig(final_depth_m=0.03)
@@ -123,9 +123,9 @@ def test_offsets_outside_the_theory_are_rejected():
 def test_real_insertion_matches_whitney_in_shape():
     """Regression check on the physics: the default scene, a straight-down insertion at 1 mm
     offset at the validation's quasi-static 2 mm/s, to 12 mm depth."""
-    from pih.scene import PegInHoleScene
-    from pih.validation import run_insertion
-    from pih.validation_config import validation_scene_config
+    from pih.scene.simulation import PegInHoleScene
+    from pih.validation.config import validation_scene_config
+    from pih.validation.experiment import run_insertion
 
     config = ValidationConfig(
         speed_m_per_s=0.002, robot_depth_m=0.02, hole_depth_m=0.03, final_depth_m=0.012

@@ -1,4 +1,4 @@
-"""Tests for pih.whitney against the project's formula sheet docs/whitney.md (§ numbers are its).
+"""Tests for pih.whitney.theory against the project's formula sheet docs/whitney.md (§ numbers are its).
 
 Its tables are in mm, N and N*mm; the module is SI, so depths are converted with MM.
 Printed table values are checked to their printed precision (half a unit of the last digit).
@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from pih.whitney import (
+from pih.whitney.theory import (
     WhitneyInvalidError,
     WhitneyParams,
     chamfer_height,

@@ -123,8 +123,8 @@ def page(title: str, caption_rst: str, markdown: str) -> str:
 
 
 if "snakemake" in globals():
-    from pih.outputs import write_text
-    from pih.workflow import logged
+    from pih.records.outputs import write_text
+    from pih.workflow.jobs import logged
 
     with logged(snakemake.log[0]):  # noqa: F821 - the object Snakemake gives its scripts
         for name, source in snakemake.input.items():  # noqa: F821

@@ -1,9 +1,8 @@
 import pandas as pd
 from snakemake.utils import Paramspace, validate
 
-from pih.provenance import script_library_hash
-from pih.study_config import (
-    check_schema,
+from pih.records.provenance import script_library_hash
+from pih.study.config import (
     check_study,
     figure_point,
     read_config_files,
@@ -13,6 +12,7 @@ from pih.study_config import (
     study_points,
     validation_scenes,
 )
+from pih.study.schema import check_schema
 
 # Stop before any job runs if the config is malformed (schema) or out of range (library), with
 # one line naming the file or the dotted key (and the variant).

@@ -1,14 +1,14 @@
 """One planning run (paper Algorithm 1) at one sweep point, then its deployment trials."""
 
 from pih.config import from_mapping, to_mapping
-from pih.outputs import write_table
-from pih.planner import Planner
-from pih.planner_config import PlannerConfig
-from pih.recordings import record_planning
-from pih.run_record import PATH_COLUMNS, ROLLOUT_COLUMNS
-from pih.scene_config import SceneConfig
-from pih.study_config import seed_key, variant_overrides
-from pih.workflow import job_provenance, logged
+from pih.planning.config import PlannerConfig
+from pih.planning.planner import Planner
+from pih.planning.run_record import PATH_COLUMNS, ROLLOUT_COLUMNS
+from pih.records.outputs import write_table
+from pih.scene.config import SceneConfig
+from pih.study.config import seed_key, variant_overrides
+from pih.study.recordings import record_planning
+from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):
     point = dict(snakemake.params.point)  # already applied to the params' scene and planner

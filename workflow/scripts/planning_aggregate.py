@@ -5,20 +5,20 @@ from pathlib import Path
 
 import pandas as pd
 
-from pih import plots
-from pih.aggregate import (
+from pih.config import from_mapping
+from pih.records.outputs import read_provenance
+from pih.scene.config import SceneConfig
+from pih.study import plots
+from pih.study.aggregate import (
     best_training_rows,
     planning_tables,
     redeployment_summaries,
     run_tables,
     run_title,
 )
-from pih.config import from_mapping
-from pih.outputs import read_provenance
-from pih.planning_summary import write_planning_summary
-from pih.scene_config import SceneConfig
-from pih.study_config import VARIANT_KEY
-from pih.workflow import job_provenance, logged
+from pih.study.config import VARIANT_KEY
+from pih.study.planning_summary import write_planning_summary
+from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):
     keys = list(snakemake.params.sweep)

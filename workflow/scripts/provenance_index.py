@@ -1,7 +1,7 @@
 """A table of the provenance records of all outputs, for the report."""
 
-from pih.outputs import markdown_table, provenance_index, write_text
-from pih.workflow import job_provenance, logged
+from pih.records.outputs import markdown_table, provenance_index, write_text
+from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):
     table = provenance_index(list(snakemake.input), snakemake.params.companions)

@@ -2,10 +2,10 @@
 and, for a model error, on a real scene with other settings."""
 
 from pih.config import to_mapping
-from pih.outputs import write_table
-from pih.redeployment import deployment_scene, redeploy
-from pih.run_record import ROLLOUT_COLUMNS, Phase, RecordedRun, phase_rows
-from pih.workflow import job_provenance, logged
+from pih.planning.run_record import ROLLOUT_COLUMNS, Phase, RecordedRun, phase_rows
+from pih.records.outputs import write_table
+from pih.study.redeployment import deployment_scene, redeploy
+from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):
     run = RecordedRun.read(snakemake.input.rollouts)

@@ -2,9 +2,9 @@
 
 import pandas as pd
 
-from pih.outputs import read_provenance, write_text
-from pih.summary import summary_markdown
-from pih.workflow import job_provenance, logged
+from pih.records.outputs import read_provenance, write_text
+from pih.study.summary import summary_markdown
+from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):
     success = pd.read_parquet(snakemake.input.success)

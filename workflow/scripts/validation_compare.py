@@ -2,18 +2,18 @@
 
 import pandas as pd
 
-from pih import plots
 from pih.config import from_mapping
-from pih.outputs import (
+from pih.records.outputs import (
     markdown_table,
     read_provenance,
     read_validation_traces,
     write_table,
     write_text,
 )
-from pih.scene_config import SceneConfig
-from pih.study_config import ValidationSection
-from pih.validation import (
+from pih.scene.config import SceneConfig
+from pih.study import plots
+from pih.study.config import ValidationSection
+from pih.validation.experiment import (
     ALIGNED_COLUMNS,
     COMPARISON_COLUMNS,
     aligned_curves,
@@ -21,7 +21,7 @@ from pih.validation import (
     phase_markers,
     whitney_params,
 )
-from pih.workflow import job_provenance, logged
+from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):
     section = from_mapping(ValidationSection, snakemake.params.validation, "validation")

@@ -1,13 +1,13 @@
 """Quasi-static straight-down insertion in Drake at one offset, in one validation variant (paper §2.4)."""
 
 from pih.config import from_mapping
-from pih.outputs import write_trace
-from pih.recordings import record_insertion
-from pih.scene import PegInHoleScene
-from pih.scene_config import SceneConfig
-from pih.validation import run_insertion
-from pih.validation_config import ValidationConfig
-from pih.workflow import job_provenance, logged
+from pih.records.outputs import write_trace
+from pih.scene.config import SceneConfig
+from pih.scene.simulation import PegInHoleScene
+from pih.study.recordings import record_insertion
+from pih.validation.config import ValidationConfig
+from pih.validation.experiment import run_insertion
+from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):
     variant = snakemake.wildcards.variant

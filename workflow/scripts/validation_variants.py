@@ -1,10 +1,15 @@
 """results/validation/variants.*: every validation variant against Whitney, and the rule's choice."""
 
 from pih.config import from_mapping
-from pih.outputs import read_validation_traces, write_table, write_text
-from pih.study_config import ValidationSection
-from pih.validation import VARIANT_COLUMNS, choose_variants, comparison_table, variants_markdown
-from pih.workflow import job_provenance, logged
+from pih.records.outputs import read_validation_traces, write_table, write_text
+from pih.study.config import ValidationSection
+from pih.validation.experiment import (
+    VARIANT_COLUMNS,
+    choose_variants,
+    comparison_table,
+    variants_markdown,
+)
+from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):
     section = from_mapping(ValidationSection, snakemake.params.validation, "validation")

@@ -1,11 +1,11 @@
 """Whitney's theoretical curve for one lateral offset (paper §2.3), to the peg's length."""
 
-from pih import whitney
 from pih.config import from_mapping
-from pih.outputs import write_table
-from pih.scene_config import SceneConfig
-from pih.validation import whitney_params
-from pih.workflow import job_provenance, logged
+from pih.records.outputs import write_table
+from pih.scene.config import SceneConfig
+from pih.validation.experiment import whitney_params
+from pih.whitney import theory as whitney
+from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):
     scene = from_mapping(SceneConfig, snakemake.params.scene, "scene")

@@ -1,0 +1,80 @@
+"""``pih replay RUN_DIR QUERY``: the selected rollouts simulated again."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from pih.cli.common import first_line
+
+
+def replay(run: Path, query: str, output: Path | None, settings: list[str]) -> int:
+    import numpy as np
+    import yaml
+
+    from pih.cli.row_query import select_rows
+    from pih.config import ConfigError, to_mapping
+    from pih.planning.planner import Planner
+    from pih.planning.run_record import RecordedRun, recorded_pose, recorded_rollout, succeeded
+    from pih.records.provenance import record as provenance_record
+    from pih.study.config import scene_with
+    from pih.study.recordings import record_insertion
+
+    try:
+        recorded = RecordedRun.read(run / "rollouts.parquet")
+        rollouts, config = recorded.rollouts, recorded.record["config"]
+        rows = select_rows(rollouts, query)
+        overrides = {}
+        for setting in settings:
+            key, sep, value = setting.partition("=")
+            if not sep or not key.startswith("scene."):
+                raise ConfigError(f"--set {setting!r}: expected scene.<section>.<key>=<value>")
+            overrides[key.removeprefix("scene.")] = yaml.safe_load(value)
+        if "solver.time_step_s" in overrides and "solver.retry_time_step_s" not in overrides:
+            overrides["solver.retry_time_step_s"] = overrides["solver.time_step_s"] / 2
+        scene = scene_with(to_mapping(recorded.scene), overrides, "--set")
+    except Exception as error:  # noqa: BLE001 - a bad run, query or setting: one clear line
+        print(f"pih replay {run}: {first_line(error)}", file=sys.stderr)
+        return 1
+    if "weights" not in rollouts or rows.empty:
+        if "weights" not in rollouts:
+            why = "it predates recorded weights"
+        else:
+            why = (
+                f"no row matches {query!r}; "
+                + ", ".join(
+                    f"{c} {rollouts[c].min()}–{rollouts[c].max()}" for c in ("iteration", "rollout")
+                )
+                + f", phases {', '.join(sorted(rollouts['phase'].unique()))}"
+            )
+        print(f"pih replay {run}: nothing to replay ({why})", file=sys.stderr)
+        return 1
+    planner = Planner.from_configs(scene, recorded.planner)
+    hole, tolerance = planner.scene.hole_pose, recorded.planner.success_tolerance_m
+    differs = 0
+    for index, (_, row) in enumerate(rows.iterrows()):
+        rollout = recorded_rollout(row)
+        trace, _ = planner.evaluate_rollout(rollout)
+        replayed = trace.q_peg_bottom[-1]
+        simulated = hole if rollout.simulated_hole is None else rollout.simulated_hole
+        inserted = succeeded(trace, simulated, tolerance)
+        same = np.array_equal(replayed, recorded_pose(row, "final_bottom"))
+        differs += not same
+        if index == 0:
+            name = f"replay_{row['phase']}_{row['iteration']}_{row['rollout']}"
+            extra = {"query": query, "set": overrides}
+            provenance = provenance_record(
+                "replay", config=config, inputs=[run / "rollouts.parquet"], extra=extra
+            )
+            target_file = output or run / f"{name}.rrd"
+            record_insertion(target_file, trace, scene, name, provenance)
+            print(f"# {target_file}: the first row's replay, as a Rerun recording")
+        pose = ",".join(f"{v:.9g}" for v in recorded_pose(row, "final_bottom"))
+        print(
+            f"phase={row['phase']} iteration={row['iteration']} rollout={row['rollout']} "
+            f"recorded_p2={pose} replayed_p2={','.join(f'{v:.9g}' for v in replayed)} "
+            f"recorded_inserted={int(bool(row['success']))} replayed_inserted={int(inserted)} "
+            f"status={trace.status} same={int(same)}"
+        )
+    # Without --set a replay must end where the record says (exit 1 if not); with it, it may not.
+    return 0 if settings or not differs else 1

@@ -1,0 +1,594 @@
+"""Aggregates over planning runs: per-run summaries, the cost bands (Fig. 9), deployment success
+with intervals over independent runs, and the Markdown tables. docs/planner.md explains the
+statistics.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pih.config import recorded_config, to_mapping
+from pih.planning.config import method_label, recorded_planner, upgraded
+from pih.planning.run_record import Phase, phase_rows
+from pih.records.outputs import read_provenance
+from pih.scene.config import SceneConfig
+from pih.study.config import GOAL_KEY, VARIANT_KEY, is_method_key, plain, upgraded_point
+from pih.study.statistics import rate_over_runs, sign_test_p
+
+
+def best_training_rows(rollouts: pd.DataFrame) -> pd.DataFrame:
+    """Each training iteration's lowest-cost rollout, in iteration order."""
+    train = phase_rows(rollouts, Phase.TRAIN)
+    return train[train["is_best"]].sort_values("iteration")
+
+
+def final_success_fraction(rollouts: pd.DataFrame, last: int = 10) -> float:
+    """Fraction of the last ``last`` training iterations whose best rollout succeeded."""
+    return float(best_training_rows(rollouts)["success"].tail(last).mean())
+
+
+SEED_KEY = "planner.seed"
+REPLICATE_KEYS = ("planner.start_x_m", SEED_KEY)
+"""Sweep dimensions that replicate a comparison rather than define one (the ablation table
+pools over them)."""
+
+
+def ablation_table(success: pd.DataFrame) -> pd.DataFrame:
+    """The rows of :func:`success_table` split by the compared dimensions (e.g. ``variant``) and
+    the overall rows; the replicate dimensions (start, seed) are pooled."""
+    return success[~success["dimension"].isin(REPLICATE_KEYS)]
+
+
+def compared_rows(table: pd.DataFrame) -> pd.DataFrame:
+    """The rows of a per-dimension table (:func:`success_table`, :func:`cost_bands`) split by a
+    compared dimension (an ablation's variants: different designs that do not pool); empty when
+    the study compares none."""
+    rows = ablation_table(table)
+    return rows[rows["dimension"] != "all"]
+
+
+def figure_bands(bands: pd.DataFrame) -> pd.DataFrame:
+    """The rows of :func:`cost_bands` that Fig. 9 draws: per method over all runs, or, where the
+    study compares another dimension (an ablation's variants, whose costs differ in scale and
+    design), per method and level of it, the method labelled ``<method>, <dimension> <level>``."""
+    compared = compared_rows(bands)
+    if compared.empty:
+        return bands[bands["dimension"] == "all"]
+    name = compared["dimension"].str.rsplit(".", n=1).str[-1]
+    return compared.assign(method=compared["method"] + ", " + name + " " + compared["level"])
+
+
+def variant(planner: Mapping[str, Any]) -> str:
+    """A run's method as the study compares it (its recorded ``planner`` section, any age):
+    ``one_level``, or ``bilevel/<outer rule>``."""
+    return method_label(upgraded(planner)["goal"])
+
+
+def run_title(point: Mapping[str, Any], planner: Mapping[str, Any]) -> str:
+    """A run for a figure title: its method, then its other sweep levels (``start_x_m = -0.035``)."""
+    levels = [
+        f"{key.rsplit('.', 1)[-1]} = {plain(value)}"
+        for key, value in point.items()
+        if not is_method_key(key)
+    ]
+    return ", ".join([variant(planner), *levels])
+
+
+def run_summary(
+    rollouts: pd.DataFrame, tolerance_m: float, time_step_s: float, deploy_policy: str
+) -> dict[str, Any]:
+    """One planning run's outcome: deployment success (the headline) and the training view."""
+    train = phase_rows(rollouts, Phase.TRAIN)
+    deploy = phase_rows(rollouts, Phase.DEPLOY)
+    final_mean = (
+        deploy if deploy_policy == "final_mean" else phase_rows(rollouts, Phase.DEPLOY_FINAL_MEAN)
+    )
+    means = phase_rows(rollouts, Phase.MEAN).sort_values("iteration")
+    best = best_training_rows(rollouts)
+    successes = best.loc[best["success"], "iteration"]
+    goal_reached = best.loc[best["target_hole_error_m"] <= tolerance_m, "iteration"]
+    return {
+        "deploy_success_rate": float(deploy["success"].mean()) if len(deploy) else math.nan,
+        "final_mean_deploy_success_rate": float(final_mean["success"].mean())
+        if len(final_mean)
+        else math.nan,
+        "final_iteration_success": bool(best["success"].iloc[-1]),
+        "final_success_fraction": final_success_fraction(rollouts),
+        "mean_policy_last10_success": float(means["success"].tail(10).mean())
+        if len(means)
+        else math.nan,
+        "first_success_iteration": int(successes.iloc[0]) if len(successes) else None,
+        "goal_iteration": int(goal_reached.iloc[0]) if len(goal_reached) else None,
+        "diverged_fraction": float((train["status"] != "ok").mean()),
+        "retried_fraction": float((train["time_step_s"] != time_step_s).mean()),
+        "deploy_diverged_fraction": float((deploy["status"] != "ok").mean())
+        if len(deploy)
+        else math.nan,
+        "deploy_repeats_training": repeats_training(rollouts),
+    }
+
+
+def repeats_training(rollouts: pd.DataFrame) -> bool:
+    """Whether every deployment trial only repeated a rollout of training: it ended at exactly
+    the final pose of one of the per-iteration mean rollouts. That happens when the deployed
+    target reads no fresh sensing and the start is training's (our rule, once it has found the
+    hole): such trials cannot fail once the mean inserted, so they measure training, not
+    deployment (the perturbed redeployment can fail)."""
+    pose = ["final_bottom_x_m", "final_bottom_y_m", "final_bottom_theta_rad"]
+    deploy = phase_rows(rollouts, Phase.DEPLOY)[pose]
+    means = phase_rows(rollouts, Phase.MEAN)[pose]
+    if deploy.empty or means.empty:
+        return False
+    seen = set(map(tuple, means.to_numpy()))
+    return all(tuple(row) in seen for row in deploy.to_numpy())
+
+
+_LEVEL_COLUMNS = {
+    "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
+    "dimension": ("", "sweep dimension the row is split by ('all': not split)"),
+    "level": ("", "level of that dimension"),
+}
+BEST_COST_COLUMNS: dict[str, tuple[str, str]] = {
+    "iteration": ("1", "iteration"),
+    "cost": ("1", "best inner cost J_inn of the iteration (eq. 11)"),
+    "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
+    "run": ("", "run directory (sweep point)"),
+}
+BAND_COLUMNS: dict[str, tuple[str, str]] = {
+    **_LEVEL_COLUMNS,
+    "iteration": ("1", "iteration"),
+    "mean": ("1", "mean over runs of the best J_inn"),
+    "std": ("1", "standard deviation over runs"),
+    "var": ("1", "variance over runs"),
+    "count": ("1", "runs with a finite best J_inn"),
+    "median": ("1", "median over runs"),
+}
+SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
+    **_LEVEL_COLUMNS,
+    "runs": ("1", "independent planning runs"),
+    "deploy_success_rate": (
+        "1",
+        "mean over runs of the fraction of deployment trials that inserted (the headline)",
+    ),
+    "deploy_ci_low": ("1", "95 % Wilson interval over runs (each run one observation), low"),
+    "deploy_ci_high": ("1", "95 % Wilson interval over runs, high"),
+    "final_mean_deploy_success_rate": (
+        "1",
+        "the same for the final mean weights, deployed on the same sensed holes (NaN: not run)",
+    ),
+    "final_mean_deploy_ci_low": ("1", "95 % Wilson interval over runs, low"),
+    "final_mean_deploy_ci_high": ("1", "95 % Wilson interval over runs, high"),
+    "final_iteration_success_rate": ("1", "runs whose last iteration's best rollout succeeded"),
+    "mean_last10_success_fraction": (
+        "1",
+        "mean fraction of the last 10 iterations whose best rollout succeeded",
+    ),
+    "mean_policy_last10_success_fraction": (
+        "1",
+        "mean fraction of the last 10 iterations whose mean weights inserted (NaN: not evaluated)",
+    ),
+    "first_success_rate": ("1", "runs whose best rollout succeeded in some iteration"),
+    "median_first_success_iteration": ("1", "median first iteration with a successful best"),
+    "median_goal_iteration": (
+        "1",
+        "median first iteration whose goal was within tolerance of the true hole (never: NaN)",
+    ),
+    "diverged_rollout_fraction": ("1", "mean fraction of diverged training rollouts"),
+    "retried_rollout_fraction": (
+        "1",
+        "mean fraction of training rollouts with an interval rerun at solver.retry_time_step_s",
+    ),
+    "deploy_diverged_fraction": (
+        "1",
+        "mean fraction of deployment trials that ended in a simulation failure (not successes)",
+    ),
+    "runs_repeating_training": (
+        "1",
+        "runs whose every deployment trial only repeated a training rollout (cannot fail)",
+    ),
+}
+
+
+def run_tables(
+    rollout_files: Iterable[str | Path],
+    sweep_keys: list[str],
+    tags: Mapping[Path, Mapping[str, Any]] | None = None,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """From planning-run records: the best cost per iteration of every run (long table) and one
+    summary row per run, each tagged with its method (:func:`variant`), run (its directory's
+    name) and sweep levels (its sweep point's), or with ``tags[path]``'s run and levels."""
+    bests, summaries = [], []
+    for path in map(Path, rollout_files):
+        record = read_provenance(path)
+        planner = recorded_planner(record["config"])
+        scene = recorded_config(SceneConfig, record["config"], "scene")
+        rollouts = pd.read_parquet(path)
+        if tags is None:
+            point = upgraded_point(record["sweep_point"])
+            own = {"run": path.parent.name, **{k: point[k] for k in split_keys(sweep_keys)}}
+        else:
+            own = tags[path]
+        run_tags = {"method": variant(to_mapping(planner)), **own}
+        run_tags |= {key: str(run_tags[key]) for key in split_keys(sweep_keys)}
+        bests.append(best_training_rows(rollouts)[["iteration", "cost"]].assign(**run_tags))
+        summaries.append(
+            {
+                **run_tags,
+                "start_std_m": planner.deploy_start_std_m,
+                "model_error": NO_MODEL_ERROR,
+                **run_summary(
+                    rollouts,
+                    planner.success_tolerance_m,
+                    scene.solver.time_step_s,
+                    planner.deploy_policy,
+                ),
+            }
+        )
+    return pd.concat(bests, ignore_index=True), pd.DataFrame(summaries)
+
+
+NO_MODEL_ERROR = "none"
+"""``model_error`` of a deployment on the scene the policy was trained on."""
+
+
+def model_error_name(record: Mapping[str, Any]) -> str:
+    """The model error a redeployment file's provenance ``record`` names, or "none"."""
+    return (record.get("model_error") or {}).get("name", NO_MODEL_ERROR)
+
+
+def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -> pd.DataFrame:
+    """One row per redeployment of a run (``pih redeploy``, the ``redeploy`` and
+    ``redeploy_model_error`` rules): its method, run and sweep levels as :func:`run_tables` tags
+    them, the start std, the model error's name (``robustness.model_error``, or "none") and
+    the fraction of the redeployed trials that inserted."""
+    rows = []
+    for path in map(Path, files):
+        record = read_provenance(path)
+        planner = record["config"]["planner"]
+        deploy = phase_rows(pd.read_parquet(path, columns=["phase", "success"]), Phase.DEPLOY)
+        point = upgraded_point(record["sweep_point"])
+        rows.append(
+            {
+                "method": variant(planner),
+                "run": path.parent.name,
+                **{key: str(point[key]) for key in split_keys(sweep_keys)},
+                "start_std_m": planner["deploy_start_std_m"],
+                "model_error": model_error_name(record),
+                "deploy_success_rate": float(deploy["success"].mean()),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+ROBUSTNESS_COLUMNS: dict[str, tuple[str, str]] = {
+    "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
+    "start_std_m": ("m", "std of the deployment trials' start offset in x and y"),
+    "model_error": (
+        "",
+        "the real scene's difference from training's (robustness.model_error), or none",
+    ),
+    "runs": ("1", "independent planning runs"),
+    "deploy_success_rate": ("1", "mean over runs of the fraction of trials that inserted"),
+    "deploy_ci_low": ("1", "95 % Wilson interval over runs (each run one observation), low"),
+    "deploy_ci_high": ("1", "95 % Wilson interval over runs, high"),
+    "runs_all_inserted": ("1", "runs whose every trial inserted"),
+}
+
+
+def compared_keys(sweep_keys: list[str]) -> list[str]:
+    """The sweep dimensions that define a comparison (e.g. ``variant``): not the method's, not
+    the replicates (start, seed)."""
+    return [key for key in split_keys(sweep_keys) if key not in REPLICATE_KEYS]
+
+
+def robustness_columns(sweep_keys: list[str]) -> dict[str, tuple[str, str]]:
+    """Unit specs of :func:`robustness_table`'s columns for a sweep."""
+    method, *rest = ROBUSTNESS_COLUMNS.items()
+    return dict([method, *level_columns(compared_keys(sweep_keys)).items(), *rest])
+
+
+def robustness_table(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
+    """Deployment success per method, level of every compared dimension, start std and model
+    error, over the runs' own deployments (at their ``deploy_start_std_m``) and their
+    redeployments (:func:`redeployment_summaries`); a run redeployed at its own std counts
+    once."""
+    compared = compared_keys(sweep_keys)
+    conditions = ["start_std_m", "model_error"]
+    unique = _with_model_error(deployments).drop_duplicates(["run", *conditions])
+    rows = []
+    for (method, *levels, std, error), runs in unique.groupby(["method", *compared, *conditions]):
+        rate, low, high = rate_over_runs(runs["deploy_success_rate"])
+        rows.append(
+            {
+                "method": method,
+                **dict(zip(compared, levels, strict=True)),
+                "start_std_m": std,
+                "model_error": error,
+                "runs": len(runs),
+                "deploy_success_rate": rate,
+                "deploy_ci_low": low,
+                "deploy_ci_high": high,
+                "runs_all_inserted": int((runs["deploy_success_rate"] == 1).sum()),
+            }
+        )
+    table = pd.DataFrame(rows, columns=list(robustness_columns(sweep_keys)))
+    # The scene the policy was trained on first, then each model error.
+    order = (table["model_error"] != NO_MODEL_ERROR).astype(int)
+    return table.iloc[order.argsort(kind="stable")].reset_index(drop=True)
+
+
+def headline_std(robustness: pd.DataFrame) -> float | None:
+    """The start std of the headline: the smallest σ > 0 the study redeployed at."""
+    stds = sorted(s for s in robustness["start_std_m"].unique() if s > 0)
+    return float(stds[0]) if stds else None
+
+
+def on_training_scene(robustness: pd.DataFrame) -> pd.DataFrame:
+    """The deployments on the scene the policies were trained on (no model error)."""
+    if "model_error" not in robustness:
+        return robustness
+    return robustness[robustness["model_error"] == NO_MODEL_ERROR]
+
+
+def offset_level(level: object, start_std_m: float) -> str:
+    """The ``level`` of a paired row over the deployments from starts offset by ``start_std_m``
+    at one level of a compared dimension (e.g. ``sensed_per_run, starts 0.001 m off``)."""
+    return f"{level}, starts {start_std_m:g} m off"
+
+
+def robustness_pairs(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
+    """:func:`paired_table` per start std (dimension ``start_std_m``) on the training scene,
+    from offset starts per level of every compared dimension too (level :func:`offset_level`:
+    the modes of a sim-to-real study do not pool), and per model error (dimension
+    ``model_error``)."""
+    frame = _with_model_error(deployments)
+    exact = frame[frame["model_error"] == NO_MODEL_ERROR].drop_duplicates(["run", "start_std_m"])
+    paired = paired_table(
+        exact.assign(start_std_m=exact["start_std_m"].map(str)), [*sweep_keys, "start_std_m"]
+    )
+    parts = [paired[paired["dimension"] == "start_std_m"]]
+    compared = compared_keys(sweep_keys)
+    for std, part in exact[exact["start_std_m"] > 0].groupby("start_std_m"):
+        per_level = paired_table(part, sweep_keys)
+        per_level = per_level[per_level["dimension"].isin(compared)]
+        if len(per_level):
+            levels = [offset_level(v, std) for v in per_level["level"]]
+            parts.append(per_level.assign(level=levels))
+    errors = frame[frame["model_error"] != NO_MODEL_ERROR].drop_duplicates(["run", "model_error"])
+    for error, part in errors.groupby("model_error"):
+        paired = paired_table(part, sweep_keys)
+        overall = paired[paired["dimension"] == "all"]
+        parts.append(overall.assign(dimension="model_error", level=error))
+    return pd.concat(parts, ignore_index=True)
+
+
+def _with_model_error(deployments: pd.DataFrame) -> pd.DataFrame:
+    """Deployments with a ``model_error`` column (records that predate it: none)."""
+    if "model_error" not in deployments:
+        return deployments.assign(model_error=NO_MODEL_ERROR)
+    return deployments.assign(model_error=deployments["model_error"].fillna(NO_MODEL_ERROR))
+
+
+def split_keys(sweep_keys: list[str]) -> list[str]:
+    """The sweep dimensions tables are split by: all but those :func:`variant` labels name."""
+    return [key for key in sweep_keys if key != GOAL_KEY]
+
+
+def level_columns(sweep_keys: list[str]) -> dict[str, tuple[str, str]]:
+    """Unit specs of the per-run sweep-level columns of :func:`run_tables`' outputs."""
+    return {key: ("", f"sweep level of {key}") for key in split_keys(sweep_keys)}
+
+
+def _by_dimension(frame: pd.DataFrame, sweep_keys: list[str], table) -> pd.DataFrame:
+    """``table(part)`` per method overall and per method × level of every other dimension that
+    has more than one level (a single level's rows would repeat the overall ones)."""
+    parts = [table(frame).assign(dimension="all", level="all")]
+    for key in split_keys(sweep_keys):
+        if frame[key].nunique() < 2:
+            continue
+        parts += [
+            table(part).assign(dimension=key, level=level) for level, part in frame.groupby(key)
+        ]
+    return pd.concat(parts, ignore_index=True)
+
+
+def cost_bands(runs: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
+    """Mean, standard deviation, variance and median of the best cost per iteration, per method,
+    overall and per level of every other sweep dimension (the paper's Fig. 9 bands)."""
+
+    def bands(part: pd.DataFrame) -> pd.DataFrame:
+        stats = part.groupby(["method", "iteration"])["cost"].agg(
+            ["mean", "std", "var", "count", "median"]
+        )
+        return stats.reset_index()
+
+    return _by_dimension(runs, sweep_keys, bands)
+
+
+def _median_or_never(values: pd.Series, runs: int) -> float:
+    """Median over runs where a missing value means "never" (sorted after every number)."""
+    reached = np.sort(values.dropna().to_numpy(dtype=float))
+    if runs == 0 or len(reached) <= (runs - 1) // 2:
+        return math.nan
+    ordered = np.concatenate([reached, np.full(runs - len(reached), np.inf)])
+    median = float(np.median(ordered))
+    return median if math.isfinite(median) else math.nan
+
+
+PAIRED_COLUMNS: dict[str, tuple[str, str]] = {
+    **_LEVEL_COLUMNS,
+    "versus": ("", "the method compared against, at the same sweep points"),
+    "pairs": (
+        "1",
+        "sweep points both methods ran: the same levels but the method's, so the same draws",
+    ),
+    "better": ("1", "pairs where `method` deployed more often than `versus`"),
+    "worse": ("1", "pairs where `method` deployed less often"),
+    "tied": ("1", "pairs with equal deployment success"),
+    "mean_difference": (
+        "1",
+        "mean over pairs of the deployment success of `method` minus that of `versus`",
+    ),
+    "sign_test_p": ("1", "two-sided exact sign test over the untied pairs"),
+}
+
+
+def _pair_counts(difference: pd.Series) -> dict[str, Any]:
+    """Columns of a paired comparison from the per-pair differences in deployment success."""
+    better, worse = int((difference > 0).sum()), int((difference < 0).sum())
+    return {
+        "pairs": len(difference),
+        "better": better,
+        "worse": worse,
+        "tied": len(difference) - better - worse,
+        "mean_difference": float(difference.mean()),
+        "sign_test_p": sign_test_p(better, worse),
+    }
+
+
+def paired_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
+    """Every two methods compared at the sweep points both ran (common random numbers make each
+    point a pair), overall and per level of every compared dimension (not start or seed, where
+    a level holds one pair): which deployed more often, the mean difference, a sign test."""
+    points = split_keys(sweep_keys)
+
+    def table(part: pd.DataFrame) -> pd.DataFrame:
+        success = part.assign(point=0).set_index(["point", *points, "method"])
+        wide = success["deploy_success_rate"].unstack("method")  # duplicate runs: an error
+        rows = []
+        for a, b in itertools.combinations(sorted(wide.columns), 2):
+            difference = (wide[a] - wide[b]).dropna()
+            if difference.empty:
+                continue
+            rows.append({"method": a, "versus": b, **_pair_counts(difference)})
+        return pd.DataFrame(
+            rows, columns=[c for c in PAIRED_COLUMNS if c not in ("dimension", "level")]
+        )
+
+    paired = _by_dimension(summaries, sweep_keys, table)
+    return paired[~paired["dimension"].isin(REPLICATE_KEYS)][list(PAIRED_COLUMNS)].reset_index(
+        drop=True
+    )
+
+
+def success_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
+    """Per method, overall and per level of every other dimension: deployment success with a
+    95 % interval over independent runs, and the training-time success measures."""
+
+    def table(part: pd.DataFrame) -> pd.DataFrame:
+        rows = []
+        for method, runs in part.groupby("method"):
+            n = len(runs)
+            rates = {}
+            for prefix in ("", "final_mean_"):
+                rate, low, high = rate_over_runs(runs[f"{prefix}deploy_success_rate"])
+                rates |= {
+                    f"{prefix}deploy_success_rate": rate,
+                    f"{prefix}deploy_ci_low": low,
+                    f"{prefix}deploy_ci_high": high,
+                }
+            rows.append(
+                {
+                    "method": method,
+                    "runs": n,
+                    **rates,
+                    "final_iteration_success_rate": float(runs["final_iteration_success"].mean()),
+                    "mean_last10_success_fraction": float(runs["final_success_fraction"].mean()),
+                    "mean_policy_last10_success_fraction": float(
+                        runs["mean_policy_last10_success"].mean()
+                    ),
+                    "first_success_rate": float(runs["first_success_iteration"].notna().mean()),
+                    "median_first_success_iteration": _median_or_never(
+                        runs["first_success_iteration"], n
+                    ),
+                    "median_goal_iteration": _median_or_never(runs["goal_iteration"], n),
+                    "diverged_rollout_fraction": float(runs["diverged_fraction"].mean()),
+                    "retried_rollout_fraction": float(runs["retried_fraction"].mean()),
+                    "deploy_diverged_fraction": float(runs["deploy_diverged_fraction"].mean()),
+                    "runs_repeating_training": int(runs["deploy_repeats_training"].sum()),
+                }
+            )
+        return pd.DataFrame(rows)
+
+    return _by_dimension(summaries, sweep_keys, table)[list(SUCCESS_COLUMNS)]
+
+
+@dataclass
+class PlanningTables:
+    """The tables over a study's planning runs (docs/planner.md)."""
+
+    bands: pd.DataFrame
+    success: pd.DataFrame
+    ablation: pd.DataFrame
+    variant_pairs: pd.DataFrame
+    paired: pd.DataFrame
+    robustness: pd.DataFrame
+    robustness_pairs: pd.DataFrame
+
+
+def variant_pairs(summaries: pd.DataFrame, sweep_keys: list[str], reference: str) -> pd.DataFrame:
+    """Each variant of an ablation against the reference variant (the sweep's first, e.g. the
+    paper-literal one), method by method, at the points both ran: the
+    same levels but the variant's, so the same draws. Rows as :func:`paired_table`'s, with
+    dimension ``variant``, the variant as level and ``versus`` naming the reference."""
+    columns = list(PAIRED_COLUMNS)
+    if VARIANT_KEY not in sweep_keys:
+        return pd.DataFrame(columns=columns)
+    others = [k for k in split_keys(sweep_keys) if k != VARIANT_KEY]
+    reference_runs = summaries[summaries[VARIANT_KEY] == reference].set_index(["method", *others])
+    rows = []
+    variants = summaries[summaries[VARIANT_KEY] != reference]
+    for (level, method), runs in variants.groupby([VARIANT_KEY, "method"], sort=True):
+        joined = runs.set_index(["method", *others]).join(
+            reference_runs[["deploy_success_rate"]].add_suffix("_reference"), how="inner"
+        )
+        if joined.empty:
+            continue
+        difference = joined["deploy_success_rate"] - joined["deploy_success_rate_reference"]
+        rows.append(
+            {
+                "method": method,
+                "dimension": VARIANT_KEY,
+                "level": level,
+                "versus": f"{method} at {VARIANT_KEY} {reference}",
+                **_pair_counts(difference),
+            }
+        )
+    return pd.DataFrame(rows, columns=columns)
+
+
+def planning_tables(
+    runs: pd.DataFrame,
+    summaries: pd.DataFrame,
+    deployments: pd.DataFrame,
+    sweep_keys: list[str],
+    reference_variant: str | None = None,
+) -> PlanningTables:
+    """Cost bands, success, ablation, paired (per start std, and each variant against
+    ``reference_variant``, too) and robustness tables from :func:`run_tables`' outputs and
+    every deployment at every start std (the runs' own and :func:`redeployment_summaries`')."""
+    success = success_table(summaries, sweep_keys)
+    against_reference = (
+        variant_pairs(summaries, sweep_keys, reference_variant)
+        if reference_variant is not None
+        else pd.DataFrame(columns=list(PAIRED_COLUMNS))
+    )
+    redeployed = robustness_pairs(deployments, sweep_keys)
+    paired = [paired_table(summaries, sweep_keys), against_reference, redeployed]
+    return PlanningTables(
+        bands=cost_bands(runs, sweep_keys),
+        success=success,
+        ablation=ablation_table(success),
+        variant_pairs=against_reference,
+        paired=pd.concat([p for p in paired if not p.empty] or paired[:1], ignore_index=True),
+        robustness=robustness_table(deployments, sweep_keys),
+        robustness_pairs=redeployed,
+    )

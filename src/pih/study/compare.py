@@ -1,0 +1,321 @@
+"""``pih compare OLD NEW``: did a study reproduce another one (e.g. the published one)? At two
+levels (docs/reproducibility.md):
+
+- **data**: every headline number (deployment success per method from offset starts and from
+  the training start, with intervals, the paired comparisons, Table 2–3's validation numbers)
+  and each planning run's data (the table of ``rollouts.parquet`` and its redeployments, without
+  provenance), bit-identical or within ``rtol``. Each item that differs is one line.
+- **conclusions**: each deployment success of NEW inside OLD's 95 % interval, each paired
+  comparison's sign kept, each validation r within a tolerance. This is what a run on another
+  CPU or Drake can be expected to reproduce; the physics is chaotic at the µm level.
+
+When the data differ, the two trees' provenance says what differs between the machines and code
+that made them (:func:`likely_causes`). No Drake, no simulation: it reads Parquet files.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from pih.records.outputs import read_provenance
+from pih.records.provenance import input_sha256
+from pih.study.aggregate import NO_MODEL_ERROR
+from pih.study.published import point_key
+
+R_TOLERANCE = 0.02
+"""How far a validation correlation r may move for the conclusions to hold: the paper's own
+pooled r(F_x) and r(F_z) differ by 0.09, and the step and contact settings move r by more."""
+
+ROBUSTNESS = "planning/summary/robustness.parquet"
+SUCCESS = "planning/summary/success.parquet"
+PAIRED = "planning/summary/paired.parquet"
+VALIDATION = "validation/comparison.parquet"
+
+# (table under a results tree, the columns that name a row, the numbers compared)
+HEADLINE_TABLES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
+    (
+        ROBUSTNESS,
+        ("method", "start_std_m", "model_error"),
+        ("runs", "deploy_success_rate", "deploy_ci_low", "deploy_ci_high", "runs_all_inserted"),
+    ),
+    (
+        SUCCESS,
+        ("method", "dimension", "level"),
+        (
+            "runs",
+            "deploy_success_rate",
+            "deploy_ci_low",
+            "deploy_ci_high",
+            "final_mean_deploy_success_rate",
+            "median_goal_iteration",
+        ),
+    ),
+    (
+        PAIRED,
+        ("method", "versus", "dimension", "level"),
+        ("pairs", "better", "worse", "tied", "mean_difference", "sign_test_p"),
+    ),
+    (
+        VALIDATION,
+        ("variant", "alignment", "offset"),
+        (
+            "r_f_x",
+            "r_f_z",
+            "rel_err_initial_f_x_pct",
+            "rel_err_final_f_x_pct",
+            "rel_err_initial_f_z_pct",
+            "rel_err_final_f_z_pct",
+            "rel_err_final_theta_pct",
+        ),
+    ),
+)
+
+KEY_DEFAULTS = {"model_error": NO_MODEL_ERROR}
+"""A key column a table of an older version lacks, as it reads (robustness before model
+errors: every deployment on the training scene)."""
+
+
+@dataclass(frozen=True)
+class Difference:
+    """Data that is not the same in the two trees: ``items`` compared items (one number, or
+    every number of a row or file that one tree lacks, or one run file)."""
+
+    where: str
+    what: str
+    old: object
+    new: object
+    items: int = 1
+
+    def __str__(self) -> str:
+        return f"{self.where}: {self.what}: {_show(self.old)} -> {_show(self.new)}"
+
+
+@dataclass(frozen=True)
+class Check:
+    """One conclusion of OLD, checked on NEW."""
+
+    where: str
+    what: str
+    holds: bool
+
+    def __str__(self) -> str:
+        return f"{'holds' if self.holds else 'FAILS'}: {self.where}: {self.what}"
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Both levels of a comparison of two result trees."""
+
+    differences: list[Difference]
+    items: int
+    checks: list[Check]
+    causes: list[str]
+
+    @property
+    def data_identical(self) -> bool:
+        return not self.differences
+
+    @property
+    def conclusions_hold(self) -> bool:
+        return all(check.holds for check in self.checks)
+
+    def differing_items(self) -> int:
+        return sum(d.items for d in self.differences)
+
+
+def _show(value: object) -> str:
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+
+def _same(a: object, b: object, rtol: float) -> bool:
+    if isinstance(a, float | int) and isinstance(b, float | int):
+        a, b = float(a), float(b)
+        if math.isnan(a) or math.isnan(b):
+            return math.isnan(a) and math.isnan(b)
+        return math.isclose(a, b, rel_tol=rtol, abs_tol=rtol)
+    return a == b
+
+
+def _rows(path: Path, keys: tuple[str, ...], numbers: tuple[str, ...]) -> dict[str, dict]:
+    frame = pd.read_parquet(path)
+    frame = frame.assign(**{k: v for k, v in KEY_DEFAULTS.items() if k in keys and k not in frame})
+    present = [c for c in numbers if c in frame.columns]
+    return {
+        ", ".join(f"{k}={row[k]}" for k in keys if k in frame.columns): {c: row[c] for c in present}
+        for _, row in frame.iterrows()
+    }
+
+
+def _tables(old: Path, new: Path, table: str, keys: tuple[str, ...], numbers: tuple[str, ...]):
+    """Both trees' rows of ``table`` (None for a tree without it)."""
+    return tuple(
+        _rows(t / table, keys, numbers) if (t / table).is_file() else None for t in (old, new)
+    )
+
+
+def headline_differences(old: Path, new: Path, rtol: float) -> tuple[list[Difference], int]:
+    """Every headline number (:data:`HEADLINE_TABLES`) that is missing from one tree or differs,
+    and how many numbers the two trees hold between them."""
+    differences, compared = [], 0
+    for table, keys, numbers in HEADLINE_TABLES:
+        before, after = _tables(old, new, table, keys, numbers)
+        if before is None or after is None:
+            held = len(before or after or {}) * len(numbers)
+            compared += held
+            if held:
+                presence = (before is None, after is None)
+                differences.append(Difference(table, "file", *map(_presence, presence), held))
+            continue
+        compared += len(set(before) | set(after)) * len(numbers)
+        for row in sorted(set(before) | set(after)):
+            if row not in before or row not in after:
+                presence = (row not in before, row not in after)
+                differences.append(Difference(table, row, *map(_presence, presence), len(numbers)))
+                continue
+            for column in numbers:
+                a, b = before[row].get(column), after[row].get(column)
+                if not _same(a, b, rtol):
+                    differences.append(Difference(table, f"{row}: {column}", a, b))
+    return differences, compared
+
+
+def _presence(missing: bool) -> str:
+    return "missing" if missing else "present"
+
+
+def run_files(tree: Path) -> dict[str, Path]:
+    """The planning runs' data files of a tree, by their run's sweep point (in today's keys,
+    :func:`pih.study.config.upgraded_point`: directory names changed with 0.4.0) and file name."""
+    from pih.study.config import upgraded_point
+
+    files = {}
+    for rollouts in sorted((tree / "planning").glob("*/rollouts.parquet")):
+        point = point_key(upgraded_point(read_provenance(rollouts)["sweep_point"]))
+        for data in [rollouts, *sorted(rollouts.parent.glob("redeploy_*.parquet"))]:
+            files[f"{point} {data.name}"] = data
+    return files
+
+
+def _same_data(a: Path, b: Path) -> bool:
+    """Whether two run files hold the same table, or agree in every column both have (a newer
+    version adds columns, e.g. ``simulated_hole_*`` in 0.4.0)."""
+    if input_sha256(a) == input_sha256(b):
+        return True
+    before, after = pd.read_parquet(a), pd.read_parquet(b)
+    shared = [c for c in before.columns if c in after.columns]
+    return len(before) == len(after) and before[shared].equals(after[shared])
+
+
+def run_differences(old: Path, new: Path) -> Iterator[Difference]:
+    """Every planning run file whose data (the table, not its provenance) differs or is missing,
+    named by its path in the tree that has it (the new one when both do)."""
+    before, after = run_files(old), run_files(new)
+    for name in sorted(set(before) | set(after)):
+        where = after.get(name, before.get(name))
+        tree = new if name in after else old
+        label = str(where.relative_to(tree))
+        if name not in before or name not in after:
+            yield Difference(
+                label, "run file", _presence(name not in before), _presence(name not in after)
+            )
+        elif not _same_data(before[name], after[name]):
+            yield Difference(label, "data", "one table", "another")
+
+
+def _success_checks(before: dict, after: dict | None, table: str) -> Iterator[Check]:
+    for row, numbers in sorted(before.items()):
+        low, high = numbers["deploy_ci_low"], numbers["deploy_ci_high"]
+        rate = (after or {}).get(row, {}).get("deploy_success_rate")
+        inside = rate is not None and low - 1e-12 <= rate <= high + 1e-12
+        shown = "missing" if rate is None else f"{rate:.3g}"
+        what = f"deployment success {shown} inside [{low:.3g}, {high:.3g}]"
+        yield Check(f"{table}: {row}", what, inside)
+
+
+def _sign(numbers: Mapping[str, Any]) -> int:
+    return (numbers["better"] > numbers["worse"]) - (numbers["better"] < numbers["worse"])
+
+
+def _signed(numbers: Mapping[str, Any] | None) -> str:
+    if numbers is None:
+        return "missing"
+    return f"{'0+-'[_sign(numbers)]} ({numbers['better']}/{numbers['worse']})"
+
+
+def conclusion_checks(old: Path, new: Path, r_tolerance: float = R_TOLERANCE) -> list[Check]:
+    """OLD's conclusions checked on NEW: deployment success per method and level inside OLD's
+    95 % interval (robustness and success tables), each paired comparison's sign (better minus
+    worse pairs) kept, and each validation r within ``r_tolerance``."""
+    checks: list[Check] = []
+    for table, keys, numbers in HEADLINE_TABLES:
+        before, after = _tables(old, new, table, keys, numbers)
+        if before is None:
+            continue
+        if table in (ROBUSTNESS, SUCCESS):
+            checks += _success_checks(before, after, table)
+        elif table == PAIRED:
+            for row, values in sorted(before.items()):
+                now = (after or {}).get(row)
+                held = now is not None and _sign(now) == _sign(values)
+                what = f"sign (pairs better/worse) {_signed(values)} -> {_signed(now)}"
+                checks.append(Check(f"{table}: {row}", what, held))
+        else:
+            for row, values in sorted(before.items()):
+                for column in ("r_f_x", "r_f_z"):
+                    now = (after or {}).get(row, {}).get(column)
+                    held = now is not None and abs(now - values[column]) <= r_tolerance
+                    shown = "missing" if now is None else f"{now:.4f}"
+                    what = f"{column} {values[column]:.4f} -> {shown} (within {r_tolerance:g})"
+                    checks.append(Check(f"{table}: {row}", what, held))
+    return checks
+
+
+def _made_by(record: Mapping[str, Any]) -> dict[str, str]:
+    """What made one run (its provenance), for :func:`likely_causes`."""
+    machine = record.get("machine") or {}
+    blas = "; ".join(f"{b['internal_api']} {b['architecture']}" for b in machine.get("blas", []))
+    made = {
+        "Drake": record.get("packages", {}).get("drake"),
+        "rollout code": str(record.get("rollout_code_sha256"))[:12],
+        "CPU": machine.get("cpu"),
+        "BLAS kernel": blas or None,
+        "Python": record.get("python"),
+    }
+    return {field: str(value or "not recorded") for field, value in made.items()}
+
+
+def likely_causes(old: Path, new: Path) -> list[str]:
+    """What differs between the machines and code that made the two trees' planning runs, from
+    their provenance: another Drake, other rollout code, another CPU or BLAS kernel, another
+    Python. A field a tree did not record (the CPU before 0.5.0) reads "not recorded"."""
+    made = []
+    for tree in (old, new):
+        records = [_made_by(read_provenance(p)) for p in run_files(tree).values()]
+        made.append(
+            {f: ", ".join(sorted({r[f] for r in records})) for f in records[0]} if records else {}
+        )
+    return [
+        f"another {field} ({made[0][field]} -> {made[1][field]})"
+        for field in made[0]
+        if field in made[1] and made[0][field] != made[1][field]
+    ]
+
+
+def compare(
+    old: Path, new: Path, rtol: float = 1e-9, r_tolerance: float = R_TOLERANCE
+) -> Comparison:
+    """Both levels of a comparison of two result trees (the module docstring)."""
+    for tree in (old, new):
+        if not (tree / "planning").is_dir() and not (tree / "validation").is_dir():
+            raise FileNotFoundError(f"{tree}: not a results tree (no planning/ or validation/)")
+    differences, items = headline_differences(old, new, rtol)
+    differences += run_differences(old, new)
+    items += len(set(run_files(old)) | set(run_files(new)))
+    causes = likely_causes(old, new) if differences else []
+    return Comparison(differences, items, conclusion_checks(old, new, r_tolerance), causes)

@@ -1,0 +1,77 @@
+"""The planning summary files, one writer for the workflow's ``planning_aggregate`` job and for
+``pih aggregate``: cost bands (Fig. 9), success, paired, robustness and ablation tables as
+Parquet with column units and as Markdown, and their figures (docs/planner.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from pih.records.outputs import markdown_table, write_table, write_text
+from pih.study import plots
+from pih.study.aggregate import (
+    BAND_COLUMNS,
+    BEST_COST_COLUMNS,
+    PAIRED_COLUMNS,
+    SUCCESS_COLUMNS,
+    PlanningTables,
+    compared_keys,
+    figure_bands,
+    level_columns,
+    robustness_columns,
+)
+
+
+def write_planning_summary(
+    directory: Path,
+    runs: pd.DataFrame,
+    tables: PlanningTables,
+    sweep_keys: list[str],
+    record: dict[str, Any],
+) -> None:
+    """Every summary file of a study's planning runs under ``directory`` (``runs``,
+    ``cost_bands``, ``success``, ``paired``, ``robustness``, ``ablation``: ``.parquet`` and
+    ``.md``; ``success.csv``; ``fig9_cost_bands.{png,pdf}``, ``fig_deploy_success.png``), each
+    with the provenance ``record``."""
+    directory = Path(directory)
+    frames = {
+        "runs": (runs, {**BEST_COST_COLUMNS, **level_columns(sweep_keys)}),
+        "cost_bands": (tables.bands, BAND_COLUMNS),
+        "success": (tables.success, SUCCESS_COLUMNS),
+        "paired": (tables.paired, PAIRED_COLUMNS),
+        "robustness": (tables.robustness, robustness_columns(sweep_keys)),
+        "ablation": (tables.ablation, SUCCESS_COLUMNS),
+    }
+    for name, (frame, columns) in frames.items():
+        write_table(frame, directory / f"{name}.parquet", record, columns)
+    robustness = f"{markdown_table(tables.robustness)}\n\n{markdown_table(tables.robustness_pairs)}"
+    compared = tables.robustness_pairs["dimension"].isin(compared_keys(sweep_keys))
+    # An ablation's answer: each level's nominal deployment, its deployments from offset starts
+    # and the pairs there, then each variant against the reference.
+    ablation = [tables.ablation, tables.robustness, tables.robustness_pairs[compared]]
+    if len(compared_keys(sweep_keys)) == 0:
+        ablation = ablation[:1]
+    markdown = {
+        "success": markdown_table(tables.success),
+        "paired": markdown_table(tables.paired),
+        "robustness": robustness,
+        "ablation": "\n\n".join(
+            markdown_table(t) for t in [*ablation, tables.variant_pairs] if len(t)
+        ),
+    }
+    for name, text in markdown.items():
+        write_text(directory / f"{name}.md", text, record)
+    write_text(directory / "success.csv", tables.success.to_csv(index=False))
+    plots.save(
+        plots.cost_band_figure(figure_bands(tables.bands)),
+        directory / "fig9_cost_bands.png",
+        directory / "fig9_cost_bands.pdf",
+        provenance=record,
+    )
+    plots.save(
+        plots.deploy_success_figure(tables.ablation, tables.robustness),
+        directory / "fig_deploy_success.png",
+        provenance=record,
+    )

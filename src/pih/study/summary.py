@@ -1,0 +1,304 @@
+"""``results/summary.md``: the study's headline numbers beside the paper's, at a glance.
+
+The paper's numbers are quoted from its text (Tables 2 and 3, §4); everything else is read from
+the workflow's tables. One unit per column; the detailed tables are linked.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+
+from pih.records.outputs import markdown_table
+from pih.study.aggregate import (
+    NO_MODEL_ERROR,
+    compared_rows,
+    headline_std,
+    offset_level,
+    on_training_scene,
+)
+
+# Paper Table 2: relative error (%) of the hydroelastic model against Whitney, per offset ε0 (m).
+PAPER_RELATIVE_ERROR_PCT: dict[str, dict[float, float]] = {
+    "initial_f_x": {0.0005: 10.7575, 0.001: 6.9288, 0.0015: 0.9780, 0.002: 2.9370},
+    "final_f_x": {0.0005: 0.2918, 0.001: 0.3686, 0.0015: 0.5088, 0.002: 0.8534},
+    "initial_f_z": {0.0005: 0.026, 0.001: 2.7455, 0.0015: 5.0961, 0.002: 7.8345},
+    "final_f_z": {0.0005: 12.7314, 0.001: 11.7067, 0.0015: 10.4138, 0.002: 7.3891},
+    "final_theta": {0.0005: 25.7437, 0.001: 22.9141, 0.0015: 19.2098, 0.002: 14.3666},
+}
+# Paper Table 3: Pearson r over the aligned insertion, all offsets.
+PAPER_PEARSON_R = {"r_f_x": 0.9954, "r_f_z": 0.9032}
+# Paper §4 (conclusions): bilevel, with its outer rule, "100% successful insertion within 50
+# iterations across a wide range of starting positions"; one-level's "mean cost ... diverges" (no
+# success rate given). Our outer rule is not the paper's, so the paper has no number for it.
+PAPER_PLANNING = {
+    "one_level": "mean cost diverges (no rate)",
+    "bilevel/explored_argmin": "100 % insertion",
+    "bilevel/deepest_explored": "— (our rule)",
+}
+FEATURE_NAMES = {
+    "initial_f_x": "initial F_x",
+    "final_f_x": "final F_x",
+    "initial_f_z": "initial F_z",
+    "final_f_z": "final F_z",
+    "final_theta": "final θ",
+}
+
+
+def _hydroelastic(comparison: pd.DataFrame, alignment: str) -> pd.DataFrame:
+    """The rows of the first hydroelastic variant in the comparison table."""
+    hydro = comparison[comparison["contact_model"] == "hydroelastic"]
+    first = hydro["variant"].iloc[0] if len(hydro) else None
+    return hydro[(hydro["variant"] == first) & (hydro["alignment"] == alignment)]
+
+
+def relative_error_table(
+    comparison: pd.DataFrame, alignment: str = "chamfer_start"
+) -> pd.DataFrame:
+    """Table 2 (relative errors, %), hydroelastic: per feature, the paper and ours per offset."""
+    runs = _hydroelastic(comparison, alignment)
+    runs = runs[runs["offset"] != "pooled"].sort_values("offset_m")
+    rows = []
+    for feature, paper in PAPER_RELATIVE_ERROR_PCT.items():
+        row: dict[str, object] = {"relative error (%)": FEATURE_NAMES[feature]}
+        for _, run in runs.iterrows():
+            offset = round(float(run["offset_m"]), 6)
+            row[f"ε0 {1e3 * offset:g} mm: paper"] = paper.get(offset, np.nan)
+            row[f"ε0 {1e3 * offset:g} mm: ours"] = run[f"rel_err_{feature}_pct"]
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def pearson_table(comparison: pd.DataFrame, alignment: str = "chamfer_start") -> pd.DataFrame:
+    """Table 3 (Pearson r over all offsets), hydroelastic: the paper's and ours."""
+    pooled = _hydroelastic(comparison, alignment)
+    pooled = pooled[pooled["offset"] == "pooled"]
+    return pd.DataFrame(
+        {
+            "Pearson r (1)": ["r(F_x)", "r(F_z)"],
+            "paper": list(PAPER_PEARSON_R.values()),
+            "ours": [float(pooled[c].iloc[0]) if len(pooled) else np.nan for c in PAPER_PEARSON_R],
+        }
+    )
+
+
+def chosen_variants(variants: pd.DataFrame) -> pd.DataFrame:
+    """The selection rule's choice per contact model (pooled, paper's alignment)."""
+    chosen = variants[variants["chosen"].astype(bool)]
+    return pd.DataFrame(
+        {
+            "contact model": chosen["contact_model"],
+            "variant": chosen["variant"],
+            "r(F_x) (1)": chosen["r_f_x"],
+            "r(F_z) (1)": chosen["r_f_z"],
+            "max Table 2 error (%)": chosen["max_rel_err_pct"],
+        }
+    )
+
+
+def _interval(rate: float, low: float, high: float) -> str:
+    return "—" if not np.isfinite(rate) else f"{rate:.2f} ({low:.2f}–{high:.2f})"
+
+
+def model_error_rows(robustness: pd.DataFrame, paired: pd.DataFrame) -> pd.DataFrame:
+    """Per model error (``robustness.model_error``) and method: deployment success on the
+    changed real scene with its interval, beside the same std on the training scene, and
+    against one-level at the same points (paired)."""
+    if "model_error" not in robustness:
+        return pd.DataFrame()
+    errors = robustness[robustness["model_error"] != NO_MODEL_ERROR]
+    exact = on_training_scene(robustness)
+    rows = []
+    for _, row in errors.iterrows():
+        same = exact[
+            (exact["method"] == row["method"]) & (exact["start_std_m"] == row["start_std_m"])
+        ]
+        pair = paired[
+            (paired["dimension"] == "model_error")
+            & (paired["level"] == row["model_error"])
+            & (paired["method"] == row["method"])
+            & (paired["versus"] == "one_level")
+        ]
+        rows.append(
+            {
+                "model error": row["model_error"],
+                "method": row["method"],
+                "runs": row["runs"],
+                "deployed": _interval(
+                    row["deploy_success_rate"], row["deploy_ci_low"], row["deploy_ci_high"]
+                ),
+                "without it": (
+                    _interval(
+                        *same.iloc[0][["deploy_success_rate", "deploy_ci_low", "deploy_ci_high"]]
+                    )
+                    if len(same)
+                    else "—"
+                ),
+                "vs one-level: better / worse / tied": (
+                    f"{pair.iloc[0]['better']} / {pair.iloc[0]['worse']} / {pair.iloc[0]['tied']}"
+                    if len(pair)
+                    else "—"
+                ),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def planning_rows(success: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
+    """The headline per method (and per compared level, e.g. an ablation's variants, whose
+    levels are different designs that do not pool): deployment success from starts offset by
+    N(0, σ²), a test the learned policy can fail; beside it the nominal deployment, how many runs'
+    nominal trials only repeated a training rollout, and the final mean's deployment."""
+    compared = compared_rows(success)
+    overall = compared if len(compared) else success[success["dimension"] == "all"]
+    robustness = on_training_scene(robustness)
+    std = headline_std(robustness)
+    rows = []
+    for _, row in overall.iterrows():
+        levels = {"dimension": row["dimension"], "level": row["level"]} if len(compared) else {}
+        perturbed = robustness[robustness["method"] == row["method"]]
+        if len(compared):
+            perturbed = perturbed[perturbed[row["dimension"]].astype(str) == str(row["level"])]
+        perturbed = perturbed[perturbed["start_std_m"] == std] if std is not None else perturbed[:0]
+        off = perturbed.iloc[0] if len(perturbed) else None
+        rows.append(
+            {
+                "method": row["method"],
+                **levels,
+                "paper": PAPER_PLANNING.get(row["method"], ""),
+                "runs": row["runs"],
+                f"from starts {1e3 * std:g} mm off" if std else "from offset starts": (
+                    _interval(
+                        off["deploy_success_rate"], off["deploy_ci_low"], off["deploy_ci_high"]
+                    )
+                    if off is not None
+                    else "— (not redeployed)"
+                ),
+                "runs all inserted (offset)": off["runs_all_inserted"] if off is not None else "—",
+                "from the training start": _interval(
+                    row["deploy_success_rate"], row["deploy_ci_low"], row["deploy_ci_high"]
+                ),
+                "runs only repeating training": row["runs_repeating_training"],
+                "final mean, training start": _interval(
+                    row["final_mean_deploy_success_rate"],
+                    row["final_mean_deploy_ci_low"],
+                    row["final_mean_deploy_ci_high"],
+                ),
+                "median goal iteration": row["median_goal_iteration"],
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def perturbed_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
+    """The paired comparisons on the headline's offset starts (same draws at each point): per
+    level of a compared dimension where the study has one (its levels do not pool), else over
+    all points."""
+    std = headline_std(on_training_scene(robustness))
+    if std is None:
+        return paired[:0]
+    suffix = offset_level("", std)
+    per_level = paired[paired["level"].str.endswith(suffix)]
+    if len(per_level):
+        levels = per_level["level"].str.slice(stop=-len(suffix))
+        return per_level.assign(level=levels).reset_index(drop=True)
+    rows = paired[(paired["dimension"] == "start_std_m") & (paired["level"] == str(std))]
+    return rows.drop(columns=["dimension", "level"]).reset_index(drop=True)
+
+
+def paired_rows(paired: pd.DataFrame) -> pd.DataFrame:
+    """The overall rows of :func:`pih.study.aggregate.paired_table`."""
+    overall = paired[paired["dimension"] == "all"]
+    return overall.drop(columns=["dimension", "level"]).reset_index(drop=True)
+
+
+def study_header(study: Mapping[str, object], code_version: str) -> str:
+    """What the summary summarises: config files, budget, runs, code version; a visible note when
+    the study is not the default one (its numbers are then not the published ones)."""
+    files = ", ".join(f"`{f}`" for f in study["config_files"])
+    note = (
+        ""
+        if study["default"]
+        else "\n> **Not the default study**: the config above changes `config/config.yaml`, so "
+        'these numbers are not the published ones (README, "Results"); a reduced budget '
+        "(e.g. the smoke study's) is a check of the code paths, not a result.\n"
+    )
+    return f"""Study: {files}; budget {study["iterations"]} iterations × \
+{study["rollouts_per_iteration"]} rollouts per planning run, {study["planning_runs"]} planning runs, \
+{study["deploy_trials"]} deployment trials per run; code version `{code_version}`. The paper's \
+numbers are quoted from its text; ours come from the tables linked at the end.
+{note}"""
+
+
+def summary_markdown(
+    comparison: pd.DataFrame,
+    variants: pd.DataFrame,
+    success: pd.DataFrame,
+    paired: pd.DataFrame,
+    robustness: pd.DataFrame,
+    code_version: str,
+    links: Mapping[str, str],
+    study: Mapping[str, object],
+) -> str:
+    """The summary page: planning headline first (the paper's contribution), then validation."""
+    links_md = "\n".join(f"- [{name}]({target})" for name, target in links.items())
+    std = headline_std(on_training_scene(robustness))
+    errors = model_error_rows(robustness, paired)
+    model_error = (
+        ""
+        if errors.empty
+        else f"""
+Deployed on a real scene that differs from the one the policy was trained on
+(`robustness.model_error`), from the same offset starts: success with its interval over runs,
+the same without the model error, and the pairs against one-level at the same points.
+
+{markdown_table(errors, "{:.3g}")}
+"""
+    )
+    sigma = f"{1e3 * std:g} mm" if std else "σ"
+    return f"""# pih study summary
+
+{study_header(study, code_version)}
+## Would the learned policy insert? (paper §3–4)
+
+Deployment success: the fraction of deployment trials of the learned policy that inserted,
+averaged over independent runs (one per start and seed), with a 95 % Wilson interval that counts
+each run as one observation. **The headline is from starts {sigma} off**: each trial's start
+offset by N(0, ({sigma})²) in x and y (`robustness.start_std_m`), a test every method can fail.
+From the training start, a run whose target reads no fresh sensing (our rule, once it has found
+the hole) deploys by repeating a training rollout ("runs only repeating training"), which cannot
+fail once its mean inserted. `median goal iteration`: the first iteration whose goal was within
+the success tolerance of the true hole (median over runs; blank: in fewer than half the runs).
+
+{markdown_table(planning_rows(success, robustness), "{:.3g}")}
+
+Paired from starts {sigma} off, over the sweep points both methods ran (the same random draws):
+at how many `method` deployed more often than `versus`, less often or equally, the mean
+difference, and a two-sided exact sign test over the untied pairs.
+
+{markdown_table(perturbed_pairs(paired, robustness), "{:.3g}")}
+
+The same from the training start (nominal deployment):
+
+{markdown_table(paired_rows(paired), "{:.3g}")}
+{model_error}
+## Hydroelastic contact vs Whitney's theory (paper Tables 2–3)
+
+Hydroelastic model, the paper's depth alignment (chamfer start); ε0 is the lateral offset.
+
+{markdown_table(relative_error_table(comparison), "{:.3g}")}
+
+{markdown_table(pearson_table(comparison), "{:.4g}")}
+
+Every validation variant (geometry, margin, solver, point-contact stiffness) is compared in the
+variants table; the selection rule (the highest pooled r(F_x) among variants that get through
+every offset) picks, per contact model:
+
+{markdown_table(chosen_variants(variants), "{:.4g}")}
+
+## Detailed tables
+
+{links_md}
+"""

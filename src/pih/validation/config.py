@@ -1,0 +1,68 @@
+"""The validation experiment's configuration (``validation.experiment``) and its scene: no Drake.
+
+:mod:`pih.validation.experiment` runs the experiment and compares it with Whitney's theory; this module is
+what the study's config (:mod:`pih.study.config`) needs of it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from pih.config import described, require, require_positive
+from pih.scene.config import SceneConfig
+
+
+@dataclass(frozen=True)
+class ValidationConfig:
+    """The straight-down insertion at a fixed lateral offset (paper §2.4; docs/validation.md)."""
+
+    # 2 mm/s keeps the peg's inertia negligible (measured: 10 mm/s and 2 mm/s give the same
+    # one-point and line forces to ~1 %) while a 45 mm insertion takes ~35 s simulated, a few
+    # seconds of wall time.
+    speed_m_per_s: float = described(
+        0.002, 'the robot\'s descent speed (not in the paper: "moving downward slowly")'
+    )
+    start_height_m: float = described(
+        0.0005, "the peg tip starts this far above the hole's top surface"
+    )
+    # Past Whitney's line contact (41.2 mm) plus the F_z lag of the vertical spring (≤ 25 N /
+    # 1000 N/m).
+    robot_depth_m: float = described(
+        0.07, "the robot descends until the spring's rest point is this deep"
+    )
+    hole_depth_m: float = described(
+        0.08,
+        "hole depth in the validation scene: deeper than the robot descends, so the tip never "
+        "bottoms",
+    )
+    # Inside two-point contact for every paper offset (l2' ≥ 39.4 mm), where θ = cD/l is non-zero.
+    final_depth_m: float = described(
+        0.035, "depth where the final values (Table 2) are read and the correlation window ends"
+    )
+    final_window_m: float = described(
+        0.001, "depth window over which the final simulated values are averaged"
+    )
+
+    def validate(self, prefix: str = "") -> None:
+        names = (
+            "speed_m_per_s",
+            "start_height_m",
+            "robot_depth_m",
+            "hole_depth_m",
+            "final_depth_m",
+            "final_window_m",
+        )
+        require_positive(self, names, prefix)
+        require(
+            self.robot_depth_m <= self.hole_depth_m - 0.005,
+            prefix + "robot_depth_m",
+            f"at most hole_depth_m − 5 mm = {self.hole_depth_m - 0.005:g} m (the tip must not bottom)",
+            self.robot_depth_m,
+        )
+
+
+def validation_scene_config(scene: SceneConfig, config: ValidationConfig) -> SceneConfig:
+    """The scene with a hole deep enough for a full insertion (same entrance height)."""
+    return scene.replace(
+        hole__depth_m=config.hole_depth_m, hole__y_m=scene.hole.top_y_m - config.hole_depth_m
+    )

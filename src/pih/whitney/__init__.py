@@ -1,0 +1,2 @@
+"""Whitney's quasi-static insertion theory (§2.3, docs/whitney.md): the benchmark for the
+simulated contact forces. Owns :mod:`pih.whitney.theory`. Imports nothing of ``pih``."""
