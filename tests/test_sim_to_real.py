@@ -147,6 +147,7 @@ def test_a_training_rollout_on_the_sensed_hole_replays_exactly(runs_by_mode):
 # -- deployment under model error (robustness.model_error) ------------------------------------
 
 
+@pytest.mark.slow  # simulates for more than 5 s
 def test_a_run_redeployed_on_a_moved_hole_senses_it_there(runs_by_mode):
     """The hole moved 0.5 mm after training: the camera sees it there (every sensed hole and
     one-level's targets move), bilevel keeps its learned goal, success is judged on the moved

@@ -120,6 +120,7 @@ def test_offsets_outside_the_theory_are_rejected():
         whitney_params(steep, 0.001)
 
 
+@pytest.mark.slow  # simulates for more than 5 s
 def test_real_insertion_matches_whitney_in_shape():
     """Regression check on the physics: the default scene, a straight-down insertion at 1 mm
     offset at the validation's quasi-static 2 mm/s, to 12 mm depth."""
