@@ -9,6 +9,7 @@ from pih.cli.common import first_line
 
 
 def aggregate(paths: list[Path], output_dir: Path, reference_variant: str | None) -> int:
+    """Pool the runs and redeployments under ``paths`` into the planning tables in ``output_dir``."""
     import pandas as pd
 
     from pih.config import ConfigError

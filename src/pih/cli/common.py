@@ -7,6 +7,7 @@ from pathlib import Path
 
 
 def first_line(error: Exception) -> str:
+    """An error's first line (its type's name when it has no message)."""
     return str(error).splitlines()[0] if str(error) else type(error).__name__
 
 

@@ -9,6 +9,7 @@ from pih.cli.common import first_line
 
 
 def compare(old: Path, new: Path, rtol: float, r_tolerance: float) -> int:
+    """Print both levels of the comparison; 0 when the conclusions reproduce, 1 when not."""
     from pih.study.compare import compare
 
     try:

@@ -9,6 +9,7 @@ from pih.cli.common import first_line, missing_parent
 
 
 def plot(run: Path, output: Path | None) -> int:
+    """Draw one planning run's cost curve and best paths into ``output`` (default RUN/run.png)."""
     import pandas as pd
 
     from pih.planning.run_record import RecordedRun

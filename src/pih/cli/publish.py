@@ -9,6 +9,7 @@ from pih.cli.common import first_line
 
 
 def publish(results: Path, name: str) -> int:
+    """Copy ``results`` into ``published/<name>`` and regenerate README's block for it."""
     from pih.study.published import PUBLISHED_STUDIES, publish, readme_with_results, results_block
 
     study, readme = PUBLISHED_STUDIES[name], Path("README.md")

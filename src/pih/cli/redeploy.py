@@ -9,6 +9,7 @@ from pih.cli.common import first_line, missing_parent
 
 
 def redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers: int) -> int:
+    """Deploy each run's policy again from starts offset by N(0, start_std_m²); print the rates."""
     import pandas as pd
 
     from pih.config import ConfigError

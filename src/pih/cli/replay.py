@@ -9,6 +9,7 @@ from pih.cli.common import first_line
 
 
 def replay(run: Path, query: str, output: Path | None, settings: list[str]) -> int:
+    """Simulate the rows ``query`` selects again, optionally under ``settings``; one line each."""
     import numpy as np
     import yaml
 
