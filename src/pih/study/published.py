@@ -15,6 +15,7 @@ import importlib.metadata
 import json
 import shutil
 import tempfile
+import textwrap
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -77,8 +78,8 @@ PUBLISHED_STUDIES = {
             "sim-to-real study",
             (*PLANNING_GLOBS, "validation/comparison.*", "validation/variants.*"),
             rerun_pending=(
-                "made by Drake 1.51.1 and not yet re-run under this code and Drake: it is re-run "
-                "at the paper's budget once the physics settles (issues 44, 45)"
+                "made by Drake 1.51.1 and not yet re-run under Drake 1.58; it is re-run at the "
+                "paper's budget of 50 iterations once the time-step work has settled the physics"
             ),
         ),
     )
@@ -205,8 +206,9 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
         f"Drake {drake}, {record['created_utc'][:10]}); deployment success, 95 % interval over "
         "runs:"
     )
+    source = textwrap.fill(source, 100)
     if study.rerun_pending:
-        source += f"\n\n**Not current:** {study.rerun_pending}."
+        source += "\n\n" + textwrap.fill(f"**Not current:** {study.rerun_pending}.", 100)
     begin, end = study.markers
     return "\n\n".join(
         [
