@@ -12,12 +12,12 @@ import math
 import numpy as np
 import pytest
 
+from pih.whitney.jamming import jamming_diagram
 from pih.whitney.theory import (
     WhitneyInvalidError,
     WhitneyParams,
     chamfer_height,
     curve,
-    jamming_diagram,
     line_contact_depth,
     onset_angle,
     peak_force_depth,

@@ -203,7 +203,7 @@ class PlannerConfig:
         0,
         "the run's seed: with optimizer.seed and the run's sweep levels (all but the method's), "
         "it seeds the sensed holes, the exploration noise and the deployment trials "
-        "(pih.planner.run_seeds)",
+        "(pih.planning.planner.run_seeds)",
     )
     deploy_trials: int = described(
         10,

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pih.scene.frames import spring_energy
 from pih.planning.config import COST_TERMS, CostConfig, SensingConfig
+from pih.scene.frames import spring_energy
 
 
 @dataclass(frozen=True)

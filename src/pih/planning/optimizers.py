@@ -59,14 +59,14 @@ class OptimizerConfig:
     )
     sigma: float = described(
         0.3,
-        "σ_W, the initial exploration scale of the weights (a pih.dmp weight shifts the "
+        "σ_W, the initial exploration scale of the weights (a pih.planning.dmp weight shifts the "
         "attractor by that fraction of the amplitude)",
     )
     sigma_decay: float = described(1.0, "σ is multiplied by this after every iteration")
     seed: int = described(
         0,
         "a second seed: with planner.seed and the run's sweep levels it seeds the run's streams "
-        "(pih.planner.run_seeds)",
+        "(pih.planning.planner.run_seeds)",
     )
 
     def validate(self, prefix: str = "") -> None:

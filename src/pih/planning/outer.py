@@ -8,8 +8,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from pih.planning.costs import hole_distance
 from pih.planning.config import PlannerConfig, SensingConfig
+from pih.planning.costs import hole_distance
 
 if TYPE_CHECKING:
     from pih.scene.trace import Trace

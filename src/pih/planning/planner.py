@@ -42,11 +42,11 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from pih.config import require
+from pih.planning.config import ONE_LEVEL, PlannerConfig
 from pih.planning.costs import CostBalance, CostTerms, inner_cost
 from pih.planning.dmp import Dmp
 from pih.planning.optimizers import Optimizer, make_optimizer
 from pih.planning.outer import OuterLevel
-from pih.planning.config import ONE_LEVEL, PlannerConfig
 from pih.planning.run_record import (
     DEPLOYMENT_PHASES,
     ROLLOUT_COLUMNS,
@@ -58,8 +58,8 @@ from pih.planning.run_record import (
     phase_rows,
     recorded_pose,
 )
-from pih.scene.simulation import PegInHoleScene
 from pih.scene.config import SceneConfig
+from pih.scene.simulation import PegInHoleScene
 from pih.scene.trace import RobotTrajectory, Trace
 
 

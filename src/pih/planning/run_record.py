@@ -16,9 +16,9 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from pih.config import recorded_config
+from pih.planning.config import COST_TERMS, PlannerConfig, recorded_planner, replace
 from pih.planning.costs import CostBalance, CostTerms
 from pih.records.outputs import read_provenance
-from pih.planning.config import COST_TERMS, PlannerConfig, recorded_planner, replace
 from pih.scene.config import SceneConfig
 
 if TYPE_CHECKING:
@@ -106,7 +106,7 @@ ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
         "1",
         (
             "DMP weights W of the rollout (3 × n_basis: x, y, θ; fractions of each DoF's "
-            "amplitude, pih.dmp): with start, target and the scene config it replays exactly"
+            "amplitude, pih.planning.dmp): with start, target and the scene config it replays exactly"
         ),
     ),
     "final_bottom_x_m": ("m", "peg tip P2 at the end, x"),

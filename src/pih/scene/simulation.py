@@ -48,8 +48,8 @@ from pydrake.systems.primitives import (
 )
 from pydrake.trajectories import PiecewisePolynomial
 
-from pih.scene.frames import offset_along_axis, spring_energy, spring_force
 from pih.scene.config import SceneConfig, SolverConfig, wall_profile
+from pih.scene.frames import offset_along_axis, spring_energy, spring_force
 from pih.scene.trace import RobotTrajectory, Trace, TrajectoryError
 
 # --------------------------------------------------------------------------------------------

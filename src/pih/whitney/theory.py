@@ -35,7 +35,6 @@ __all__ = [
     "WhitneyState",
     "chamfer_height",
     "curve",
-    "jamming_diagram",
     "line_contact_depth",
     "onset_angle",
     "peak_force_depth",
@@ -499,40 +498,6 @@ def phase_boundaries(p: WhitneyParams) -> dict[str, float]:
     two_point_start (l2), two_point_end (l2'), line_start (l_line); or, in the tip-on-wall case
     (§4.6), tip_on_wall_start (0) and two_point_mirror_start (cD/|theta(0)|)."""
     return {_BOUNDARY_KEYS[name]: start for name, start in _phase_plan(p)[1:]}
-
-
-def jamming_diagram(depth_m: float, friction: float, peg_diameter_m: float) -> dict:
-    """Jamming parallelogram (10-41), docs/whitney.md §6.2, in X = F_x/F_z, Y = M/(r F_z).
-
-    With lambda = l/(mu d): two-point lines Y = +-lambda - mu (1 + lambda) X, one-point edges
-    X = +-1/mu. Returns lambda, ``slope`` of both lines, their Y intercepts (+-lambda), the
-    X intercepts (+-lambda/((lambda+1) mu)), ``x_edge`` = 1/mu, the four ``vertices`` in polygon
-    order and ``wedged`` (lambda < 1, §6.1: every load can be held).
-    """
-    if not (math.isfinite(friction) and friction > 0.0):
-        raise WhitneyInvalidError(f"friction={friction!r} must be finite and > 0")
-    if not (math.isfinite(peg_diameter_m) and peg_diameter_m > 0.0):
-        raise WhitneyInvalidError(f"peg_diameter_m={peg_diameter_m!r} must be finite and > 0")
-    if not (math.isfinite(depth_m) and depth_m >= 0.0):
-        raise WhitneyInvalidError(f"depth_m={depth_m!r} must be finite and >= 0")
-    lam = depth_m / (friction * peg_diameter_m)
-    edge = 1.0 / friction
-    return {
-        "lambda": lam,
-        "slope": -friction * (1.0 + lam),
-        "upper_y_intercept": lam,
-        "lower_y_intercept": -lam,
-        "upper_x_intercept": lam / ((lam + 1.0) * friction),
-        "lower_x_intercept": -lam / ((lam + 1.0) * friction),
-        "x_edge": edge,
-        "vertices": (
-            (-edge, 2.0 * lam + 1.0),
-            (edge, -1.0),
-            (edge, -(2.0 * lam + 1.0)),
-            (-edge, 1.0),
-        ),
-        "wedged": lam < 1.0,
-    }
 
 
 # ------------------------------------------------------------------------------------------------
