@@ -137,7 +137,9 @@ def test_publish_refuses_a_tree_that_is_not_the_studys_run(tmp_path, capsys, mon
     assert "is not published (and 12 more)" in err[0]
     assert (tmp_path / "published" / "default" / "kept.md").read_text() == "before"
     assert (tmp_path / "README.md").read_text() == readme
-    # A study whose README markers are missing is refused too, naming the marker.
+    # A study whose page lacks its markers is refused too, naming the marker.
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "sim_to_real.md").write_text("# sim to real\n")
     assert main(["publish", str(results), "--study", "sim_to_real"]) == 1
     assert "<!-- PUBLISHED-RESULTS sim_to_real -->" in capsys.readouterr().err
 
@@ -189,7 +191,7 @@ def test_readme_reports_only_published_numbers(study):
     """README's results for each published study are exactly what its tables generate; the
     default's block without a published study says so and holds no table."""
     begin, end_marker = study.markers
-    readme = (ROOT / "README.md").read_text()
+    readme = (ROOT / study.page).read_text()
     if (ROOT / study.directory).is_dir():
         start, end = readme.index(begin), readme.index(end_marker) + len(end_marker)
         assert readme[start:end] == results_block(ROOT / study.directory, study)
@@ -247,8 +249,8 @@ SIM_TO_REAL = PUBLISHED_STUDIES["sim_to_real"]
 @pytest.mark.skipif(
     not (ROOT / SIM_TO_REAL.directory).is_dir(), reason="no published sim-to-real study here"
 )
-def test_readme_sim_to_real_prose_quotes_the_published_numbers():
-    """The sentences under README's sim-to-real table quote its tables and runs: trials that
+def test_sim_to_real_prose_quotes_the_published_numbers():
+    """The sentences under the sim-to-real table (docs/sim_to_real.md) quote its tables and runs: trials that
     inserted per method and simulator, the pairs against one-level, and which runs of our rule
     inserted on the sensed hole (those whose first sensing landed near the real one)."""
     published = ROOT / SIM_TO_REAL.directory
@@ -256,7 +258,7 @@ def test_readme_sim_to_real_prose_quotes_the_published_numbers():
     robustness = pd.read_parquet(summary / "robustness.parquet")
     paired = pd.read_parquet(summary / "paired.parquet")
     prose = " ".join(
-        (ROOT / "README.md").read_text().split(SIM_TO_REAL.markers[1])[1].split("\n\n")[1].split()
+        (ROOT / SIM_TO_REAL.page).read_text().split(SIM_TO_REAL.markers[1])[1].split("\n\n")[1].split()
     )
     offset = robustness[
         (robustness["start_std_m"] == 0.001) & (robustness["model_error"] == "none")

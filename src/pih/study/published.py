@@ -36,6 +36,8 @@ class PublishedStudy:
     title: str
     globs: tuple[str, ...]
     """What :func:`publish` copies from the study's results tree."""
+    page: str = "README.md"
+    """The page whose results block :func:`results_block` generates from this study."""
     rerun_pending: str = ""
     """Why the published run is known to be stale (:func:`stale_reasons`) and when it is re-run;
     README's block says it, and the staleness test expects the run stale while it is set."""
@@ -46,7 +48,7 @@ class PublishedStudy:
 
     @property
     def markers(self) -> tuple[str, str]:
-        """README's comments around the results generated from this study."""
+        """The comments around the results generated from this study on its page."""
         tail = "" if self.name == "default" else f" {self.name}"
         return f"<!-- PUBLISHED-RESULTS{tail} -->", f"<!-- /PUBLISHED-RESULTS{tail} -->"
 
@@ -77,6 +79,7 @@ PUBLISHED_STUDIES = {
             ("config/config.yaml", "config/sim_to_real.yaml"),
             "sim-to-real study",
             (*PLANNING_GLOBS, "validation/comparison.*", "validation/variants.*"),
+            page="docs/sim_to_real.md",
             rerun_pending=(
                 "made by Drake 1.51.1 and not yet re-run under Drake 1.58; it is re-run at the "
                 "paper's budget of 50 iterations once the time-step work has settled the physics"
