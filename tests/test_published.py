@@ -258,7 +258,11 @@ def test_sim_to_real_prose_quotes_the_published_numbers():
     robustness = pd.read_parquet(summary / "robustness.parquet")
     paired = pd.read_parquet(summary / "paired.parquet")
     prose = " ".join(
-        (ROOT / SIM_TO_REAL.page).read_text().split(SIM_TO_REAL.markers[1])[1].split("\n\n")[1].split()
+        (ROOT / SIM_TO_REAL.page)
+        .read_text()
+        .split(SIM_TO_REAL.markers[1])[1]
+        .split("\n\n")[1]
+        .split()
     )
     offset = robustness[
         (robustness["start_std_m"] == 0.001) & (robustness["model_error"] == "none")
