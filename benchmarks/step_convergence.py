@@ -1,68 +1,123 @@
-"""Step convergence: do insertion outcomes agree at the study's time step and at half of it?
+"""The step check: does a simulator setting decide insertion outcomes as a fine-step reference does?
 
 Every number the study reports is an insertion outcome decided at the chamfer, where a tilted
-peg either slides in or wedges; a step that is too coarse decides some of those differently.
-This check replays a fixed set of recorded planning rollouts (the same robot motion: start, P2
-target and DMP weights) at the configured step h and at h/2 (the retry step halved too) and
-counts the outcomes that flip.
+peg either slides in or jams, and a step that is too coarse decides some of those differently.
+Jam-or-slide settles only below 0.125 ms and not monotonically (docs/simulation.md), so a setting
+is judged against a **fine-step reference**, not against its own half step.
 
-The set (``benchmarks/step_convergence_set.parquet``, committed) and its recipe: from every
-given run's training rollouts (``phase == 'train'``) in the later half of its iterations
-(contact-rich: by then most rollouts reach the chamfer or the hole), an equal number per method
-(one-level, the paper's rule, ours), drawn without replacement by ``numpy.random.default_rng(0)``
-after sorting by (run, iteration, rollout); 240 in all (80 per method). Redraw it with
-``--draw-from results/planning/*/rollouts.parquet``.
+The reference (committed, ``--make-reference``; regenerate it whenever the physics it stands
+for changes: Drake, the scene, the rollout code):
 
-    python benchmarks/step_convergence.py [--configfile config/config.yaml] [--workers 2]
-                                          [--time-step-s H] [--draw-from RUN ...]
+- ``step_reference_set.parquet``: the step set (below) replayed at 0.0625 ms, and at 0.5, 0.25
+  and 0.125 ms; every rollout whose outcome differs among those four steps is replayed once more
+  at 0.03125 ms, and ``confirmed`` says whether it ends there as at 0.0625 ms.
+- ``step_reference_deployments.parquet``: the deployment trials the published default study
+  counts (each run's trials from the training start and from starts 1 mm off) replayed at
+  0.0625 ms.
 
-``--deployments RUN ...`` (``results/planning/*/rollouts.parquet``) replays instead the
-deployment trials a study reports (each run's ``phase == 'deploy'`` trials from the training
-start and from its redeployed offset starts beside it), so one sees whether the step changes the
-headline and not only training rollouts at the edge.
+A setting (the config's scene with ``--set scene.KEY=VALUE`` overrides) PASSES when at least
+97 % of the set's insertion outcomes agree with the reference **and** the deployment trials,
+replayed at the setting, give every point's paired sign (each rule against one-level, per start
+source) that the reference gives. The last line is machine-readable:
+``flips=F of N vs_reference_ms=0.0625 median_dp2_um=D verdict=PASS|FAIL``.
+``--half-step`` prints the former check (h against h/2, 97 %) as a diagnostic instead.
 
-The last line is machine-readable: ``flips=F of N median_dp2_um=D verdict=PASS|FAIL``, PASS when
-at least 97 % of the outcomes agree. A step that fails is still allowed in a config (a user's
-choice); docs/simulation.md records what the study's step gives.
+The set (``step_convergence_set.parquet``, committed) and its recipe: from every given run's
+training rollouts (``phase == 'train'``) in the later half of its iterations (contact-rich: by
+then most rollouts reach the chamfer or the hole), an equal number per method (one-level, the
+paper's rule, ours), drawn without replacement by ``numpy.random.default_rng(0)`` after sorting
+by (run, iteration, rollout); 240 in all (80 per method). ``--draw-from RUN ...`` redraws it.
+
+    python benchmarks/step_convergence.py [--set scene.solver.time_step_s=0.00025] [--workers 2]
+    python benchmarks/step_convergence.py --half-step [--set ...]
+    python benchmarks/step_convergence.py --make-reference set|deployments [--workers 2]
+    python benchmarks/step_convergence.py --draw-from published/default/planning/*/rollouts.parquet
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
+import yaml
 
-from pih.config import from_mapping, to_mapping
+from pih.config import ConfigError, from_mapping, to_mapping
 from pih.planning.config import ONE_LEVEL, PlannerConfig
 from pih.planning.planner import Planner, RolloutWorkers
 from pih.planning.run_record import RecordedRun, recorded_rollout, succeeded
+from pih.records.outputs import read_provenance, write_table
+from pih.records.provenance import package_versions, record
 from pih.scene.config import SceneConfig
-from pih.study.config import load_config
+from pih.study.config import load_config, scene_with
 from pih.study.pooling import REDEPLOY_PATTERNS
 
-SET_PATH = Path(__file__).with_name("step_convergence_set.parquet")
+HERE = Path(__file__).parent
+SET_PATH = HERE / "step_convergence_set.parquet"
+REFERENCE_PATHS = {
+    "set": HERE / "step_reference_set.parquet",
+    "deployments": HERE / "step_reference_deployments.parquet",
+}
+PUBLISHED_RUNS = "published/default/planning/*/rollouts.parquet"
 SET_SIZE = 240
 AGREEMENT = 0.97
+REFERENCE_STEP_S = 6.25e-5
+CONFIRM_STEP_S = 3.125e-5
+COARSER_STEPS_S = (5.0e-4, 2.5e-4, 1.25e-4)
+POSES = ("start", "target", "sensed_hole")
 COLUMNS = [
     "run",
     "method",
     "iteration",
     "rollout",
-    *(f"{p}_{c}" for p in ("start", "target", "sensed_hole") for c in ("x_m", "y_m", "theta_rad")),
+    *(f"{p}_{c}" for p in POSES for c in ("x_m", "y_m", "theta_rad")),
     "weights",
 ]
+UNITS = {
+    "run": ("1", "the planning run (its results directory) the rollout was recorded in"),
+    "method": ("1", "the run's planner.goal (one_level: the sensed hole)"),
+    "point": ("1", "the run's sweep point without its method: the runs paired at one point"),
+    "source": ("1", "deployment trials: from the training start or from offset starts"),
+    "iteration": ("1", "the iteration that recorded the rollout"),
+    "rollout": ("1", "the rollout's index in its iteration"),
+    **{
+        f"{p}_{c}": (
+            unit,
+            f"the recorded {p.replace('_', ' ')}, {c[0] if c != 'theta_rad' else 'θ'}",
+        )
+        for p in POSES
+        for c, unit in (("x_m", "m"), ("y_m", "m"), ("theta_rad", "rad"))
+    },
+    "weights": ("1", "the rollout's DMP weights W"),
+    "inserted": ("1", "insertion outcome at the reference step (|P2 − H| ≤ tolerance, ok)"),
+    "p2_x_m": ("m", "final P2 x at the reference step"),
+    "p2_y_m": ("m", "final P2 y at the reference step"),
+    "varies": ("1", "the outcome differs among the coarser steps and the reference"),
+    "confirmed": ("1", "varying rollouts: the outcome at 0.03125 ms equals the reference's"),
+}
+
+
+def coarse_column(step_s: float) -> tuple[str, tuple[str, str]]:
+    """The reference set's column of the outcomes at a coarser step, with its unit."""
+    return f"inserted_at_{1e6 * step_s:g}us", ("1", f"insertion outcome at {1e3 * step_s:g} ms")
 
 
 def method_of(run: RecordedRun) -> str:
     goal = run.planner.goal
     return "one_level" if goal == ONE_LEVEL else goal
+
+
+def point_of(run: RecordedRun) -> str:
+    point = {k: v for k, v in run.record["sweep_point"].items() if k != "planner.goal"}
+    return ",".join(f"{k}={point[k]}" for k in sorted(point))
 
 
 def draw_set(paths: list[Path], size: int = SET_SIZE) -> pd.DataFrame:
@@ -92,7 +147,8 @@ def draw_set(paths: list[Path], size: int = SET_SIZE) -> pd.DataFrame:
 
 def deployment_trials(paths: list[Path]) -> tuple[pd.DataFrame, PlannerConfig]:
     """Each run's deployment trials: from the training start (``rollouts.parquet``) and from its
-    redeployed offset starts (``redeploy_start_std_m~*.parquet``), ``source`` naming which."""
+    redeployed offset starts (``redeploy_start_std_m~*.parquet``), ``source`` naming which and
+    ``point`` the runs paired with it."""
     trials = []
     planner_config: PlannerConfig | None = None
     for path in sorted(paths):
@@ -103,9 +159,9 @@ def deployment_trials(paths: list[Path]) -> tuple[pd.DataFrame, PlannerConfig]:
         for source, rows in sources:
             deployed = rows[rows["phase"] == "deploy"]
             trials.append(
-                deployed.assign(run=run_dir.name, method=method_of(run), source=source)[
-                    [*COLUMNS, "source"]
-                ]
+                deployed.assign(
+                    run=run_dir.name, method=method_of(run), point=point_of(run), source=source
+                )[[*COLUMNS, "point", "source"]]
             )
         planner_config = planner_config or run.planner
     assert planner_config is not None
@@ -145,71 +201,223 @@ def replay_all(
     )
 
 
+def at_step(scene: SceneConfig, step_s: float) -> SceneConfig:
+    """The scene at ``step_s``, its divergence retry at half of it (as the study's setting)."""
+    return scene.replace(solver__time_step_s=step_s, solver__retry_time_step_s=step_s / 2)
+
+
+def paired_signs(rows: pd.DataFrame, inserted: np.ndarray) -> pd.Series:
+    """sign(rule − one-level) of the deployment success rate, per (point, source, rule)."""
+    rates = (
+        rows.assign(inserted=inserted)
+        .groupby(["point", "source", "method"])["inserted"]
+        .mean()
+        .unstack("method")
+    )
+    rules = [m for m in rates.columns if m != "one_level"]
+    return np.sign(rates[rules].sub(rates["one_level"], axis=0)).stack().astype(int)
+
+
+def make_reference(part: str, scene: SceneConfig, workers: int, command: str) -> None:
+    """Replay the set (or the published deployment trials) at the reference step and write it."""
+    if part == "set":
+        rows, planner = read_set(SET_PATH)
+        inputs = [SET_PATH]
+    else:
+        runs = sorted(Path().glob(PUBLISHED_RUNS))
+        if not runs:
+            raise SystemExit(f"--make-reference deployments: no {PUBLISHED_RUNS} here")
+        rows, planner = deployment_trials(runs)
+        inputs = runs
+    started = time.perf_counter()
+    reference = replay_all(rows, at_step(scene, REFERENCE_STEP_S), planner, workers)
+    frame = rows.assign(
+        inserted=reference[:, 0] > 0, p2_x_m=reference[:, 1], p2_y_m=reference[:, 2]
+    )
+    simulator = {"time_step_s": REFERENCE_STEP_S, "retry_time_step_s": REFERENCE_STEP_S / 2}
+    if part == "set":
+        outcomes = [frame["inserted"].to_numpy()]
+        for step in COARSER_STEPS_S:
+            coarse = replay_all(rows, at_step(scene, step), planner, workers)[:, 0] > 0
+            frame[coarse_column(step)[0]] = coarse
+            outcomes.append(coarse)
+        varies = np.any(np.array(outcomes) != outcomes[0], axis=0)
+        confirmed = np.ones(len(rows), dtype=bool)
+        if varies.any():
+            fine = replay_all(rows[varies], at_step(scene, CONFIRM_STEP_S), planner, workers)
+            confirmed[varies] = (fine[:, 0] > 0) == frame["inserted"].to_numpy()[varies]
+        frame = frame.assign(varies=varies, confirmed=confirmed)
+        simulator["confirm_time_step_s"] = CONFIRM_STEP_S
+    provenance = record(
+        f"step_reference_{part}",
+        config={
+            "scene": to_mapping(at_step(scene, REFERENCE_STEP_S)),
+            "planner": to_mapping(planner),
+        },
+        inputs=inputs,
+        simulator=simulator,
+        extra={"command": command, "seconds": round(time.perf_counter() - started)},
+    )
+    units = {**UNITS, **dict(coarse_column(step) for step in COARSER_STEPS_S)}
+    write_table(frame, REFERENCE_PATHS[part], provenance, units)
+    print(f"{REFERENCE_PATHS[part]}: {len(frame)} rollouts, {int(frame['inserted'].sum())} insert")
+    if part == "set":
+        print(f"  {int(varies.sum())} vary among the steps; {int(confirmed.sum())} confirmed")
+
+
+def read_reference(part: str) -> tuple[pd.DataFrame, PlannerConfig]:
+    """A committed reference and its planner config; refused (one line) when another Drake or
+    other rollout code made it, since it then stands for other physics."""
+    path = REFERENCE_PATHS[part]
+    if not path.is_file():
+        raise SystemExit(f"{path}: missing; make it with --make-reference {part}")
+    provenance = read_provenance(path)
+    drake, made_by = package_versions()["drake"], provenance["packages"]["drake"]
+    if made_by != drake:
+        raise SystemExit(f"{path}: made by Drake {made_by}, not {drake}; --make-reference {part}")
+    planner = from_mapping(PlannerConfig, provenance["config"]["planner"], "planner")
+    return pd.read_parquet(path), planner
+
+
+def overridden(scene: SceneConfig, settings: list[str]) -> SceneConfig:
+    """The scene with ``--set scene.KEY=VALUE`` overrides (the retry step follows the step)."""
+    overrides = {}
+    for setting in settings:
+        key, sep, value = setting.partition("=")
+        if not sep or not key.startswith("scene."):
+            raise ConfigError(f"--set {setting!r}: expected scene.<section>.<key>=<value>")
+        overrides[key.removeprefix("scene.")] = yaml.safe_load(value)
+    if "solver.time_step_s" in overrides and "solver.retry_time_step_s" not in overrides:
+        overrides["solver.retry_time_step_s"] = overrides["solver.time_step_s"] / 2
+    return scene_with(to_mapping(scene), overrides, "--set")
+
+
+def per_method(rows: pd.DataFrame, flips: np.ndarray, inserted: dict[str, np.ndarray]) -> None:
+    for name, group in rows.groupby([c for c in ("method", "source") if c in rows]):
+        idx = group.index.to_numpy()
+        counts = ", ".join(f"{inserted[k][idx].sum()} at {k}" for k in inserted)
+        print(f"  {', '.join(name)}: {flips[idx].sum()} of {len(idx)} flip; inserted {counts}")
+
+
+def scene_differences(
+    setting: dict[str, Any], reference: dict[str, Any], prefix: str = ""
+) -> list[str]:
+    """``key=value (reference value)`` for every scene key the checked setting changes."""
+    differences = []
+    for key, value in setting.items():
+        was = reference.get(key)
+        if isinstance(value, dict):
+            differences += scene_differences(value, was or {}, f"{prefix}{key}.")
+        elif value != was:
+            differences.append(f"{prefix}{key}={value} (reference {was})")
+    return differences
+
+
+def check_against_reference(scene: SceneConfig, workers: int) -> str:
+    """Replay the set and the deployment trials at ``scene``; the verdict line."""
+    reference, planner = read_reference("set")
+    deployments, _ = read_reference("deployments")
+    made_at = read_provenance(REFERENCE_PATHS["set"])["config"]["scene"]
+    print(
+        "the setting differs from the reference's scene in: "
+        + "; ".join(scene_differences(to_mapping(scene), made_at) or ["nothing"])
+    )
+    step_ms = 1e3 * scene.solver.time_step_s
+    started = time.perf_counter()
+    replayed = replay_all(reference, scene, planner, workers)
+    seconds = time.perf_counter() - started
+    inserted, expected = replayed[:, 0] > 0, reference["inserted"].to_numpy()
+    flips = inserted != expected
+    dp2_um = 1e6 * np.hypot(*(replayed[:, 1:] - reference[["p2_x_m", "p2_y_m"]].to_numpy()).T)
+    print(f"{len(reference)} set rollouts at {step_ms:g} ms ({seconds:.0f} s, {workers} workers)")
+    per_method(reference, flips, {f"{step_ms:g} ms": inserted, "reference": expected})
+    unsure = reference["varies"] & ~reference["confirmed"]
+    print(
+        f"  the reference: {int(reference['varies'].sum())} rollouts vary among the coarser "
+        f"steps, {int(unsure.sum())} of them end otherwise at {1e3 * CONFIRM_STEP_S:g} ms"
+    )
+
+    deployed = replay_all(deployments, scene, planner, workers)[:, 0] > 0
+    reference_signs = paired_signs(deployments, deployments["inserted"].to_numpy())
+    signs = paired_signs(deployments, deployed)
+    changed = signs[signs != reference_signs]
+    print(
+        f"{len(deployments)} deployment trials: {int((deployed != deployments['inserted']).sum())} flip"
+    )
+    per_method(
+        deployments,
+        deployed != deployments["inserted"].to_numpy(),
+        {f"{step_ms:g} ms": deployed, "reference": deployments["inserted"].to_numpy()},
+    )
+    for (point, source, rule), sign in changed.items():
+        print(
+            f"  paired sign changed: {rule} vs one-level at {point}, {source}: "
+            f"{reference_signs[point, source, rule]:+d} -> {sign:+d}"
+        )
+    agree = 1 - flips.mean()
+    print(
+        f"  set agreement {agree:.1%}; paired signs kept: {len(signs) - len(changed)} of {len(signs)}"
+    )
+    verdict = "PASS" if agree >= AGREEMENT and changed.empty else "FAIL"
+    return (
+        f"flips={int(flips.sum())} of {len(reference)} vs_reference_ms={1e3 * REFERENCE_STEP_S:g} "
+        f"median_dp2_um={np.median(dp2_um):.3g} verdict={verdict}"
+    )
+
+
+def check_against_half_step(scene: SceneConfig, workers: int) -> str:
+    """The former check, a diagnostic: the set at h and at h/2."""
+    rows, planner = read_set(SET_PATH)
+    step = scene.solver.time_step_s
+    outcomes = {
+        name: replay_all(rows, at_step(scene, h), planner, workers)
+        for name, h in (("h", step), ("h/2", step / 2))
+    }
+    inserted = {name: o[:, 0] > 0 for name, o in outcomes.items()}
+    flips = inserted["h"] != inserted["h/2"]
+    dp2_um = 1e6 * np.hypot(*(outcomes["h"][:, 1:] - outcomes["h/2"][:, 1:]).T)
+    print(f"{len(rows)} set rollouts at h = {1e3 * step:g} ms and h/2")
+    per_method(rows, flips, inserted)
+    verdict = "PASS" if 1 - flips.mean() >= AGREEMENT else "FAIL"
+    return (
+        f"flips={int(flips.sum())} of {len(rows)} vs_half_step "
+        f"median_dp2_um={np.median(dp2_um):.3g} verdict={verdict}"
+    )
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--configfile", nargs="+", default=["config/config.yaml"])
-    parser.add_argument("--time-step-s", type=float, help="the step h to check (default: config's)")
+    parser.add_argument("--set", action="append", default=[], metavar="scene.KEY=VALUE")
     parser.add_argument("--workers", type=int, default=2)
-    group = parser.add_mutually_exclusive_group()
-    group.add_argument("--draw-from", nargs="+", type=Path, metavar="ROLLOUTS")
-    group.add_argument(
-        "--deployments", nargs="+", type=Path, metavar="ROLLOUTS", help="replay these instead"
-    )
-    parser.add_argument(
-        "--output", type=Path, help="Parquet of every rollout's outcome at h and h/2"
-    )
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--half-step", action="store_true", help="the former check: h against h/2")
+    mode.add_argument("--make-reference", choices=sorted(REFERENCE_PATHS))
+    mode.add_argument("--draw-from", nargs="+", type=Path, metavar="ROLLOUTS")
     args = parser.parse_args()
 
     if args.draw_from:
         drawn = draw_set(args.draw_from)
         write_set(drawn, SET_PATH)
         print(f"{SET_PATH}: {len(drawn)} rollouts ({drawn['method'].value_counts().to_dict()})")
-    rows, planner = deployment_trials(args.deployments) if args.deployments else read_set(SET_PATH)
-    config = load_config(args.configfile)
-    scene = from_mapping(SceneConfig, config["scene"], "scene")
-    step = args.time_step_s or scene.solver.time_step_s
-    coarse = scene.replace(solver__time_step_s=step, solver__retry_time_step_s=step / 2)
-    fine = scene.replace(solver__time_step_s=step / 2, solver__retry_time_step_s=step / 4)
-    seconds = {}
-    outcomes = {}
-    for name, setting in (("h", coarse), ("h/2", fine)):
-        started = time.perf_counter()
-        outcomes[name] = replay_all(rows, setting, planner, args.workers)
-        seconds[name] = time.perf_counter() - started
-    inserted_h, inserted_half = outcomes["h"][:, 0] > 0, outcomes["h/2"][:, 0] > 0
-    flips = inserted_h != inserted_half
-    dp2_um = 1e6 * np.hypot(*(outcomes["h"][:, 1:] - outcomes["h/2"][:, 1:]).T)
-    n = len(rows)
-    print(
-        f"{n} recorded rollouts at h = {1e3 * step:g} ms and h/2 ({seconds['h']:.0f} s and "
-        f"{seconds['h/2']:.0f} s with {args.workers} workers)"
-    )
-    for name, group in rows.groupby([c for c in ("method", "source") if c in rows]):
-        idx = group.index.to_numpy()
-        print(
-            f"  {', '.join(name)}: {flips[idx].sum()} of {len(idx)} flip; inserted "
-            f"{inserted_h[idx].sum()} at h, {inserted_half[idx].sum()} at h/2"
-        )
-    if args.output:
-        keys = [c for c in ("run", "method", "source", "iteration", "rollout") if c in rows]
-        per_rollout = rows[keys].assign(
-            inserted_h=inserted_h,
-            inserted_half=inserted_half,
-            **{
-                f"p2_{c}_m_{n}": outcomes[k][:, i + 1]
-                for i, c in enumerate("xy")
-                for k, n in (("h", "h"), ("h/2", "half"))
-            },
-        )
-        per_rollout.to_parquet(args.output)
-    toward = int((flips & inserted_h).sum())
-    print(f"  of the flips, {toward} insert at h only and {int(flips.sum()) - toward} at h/2 only")
-    verdict = "PASS" if 1 - flips.mean() >= AGREEMENT else "FAIL"
-    print(
-        f"flips={int(flips.sum())} of {n} median_dp2_um={np.median(dp2_um):.3g} verdict={verdict}"
-    )
+        return 0
+    try:
+        config = load_config(args.configfile)
+        scene = overridden(from_mapping(SceneConfig, config["scene"], "scene"), args.set)
+    except ConfigError as error:
+        print(f"step_convergence: {error}", file=sys.stderr)
+        return 1
+    if args.make_reference:
+        if args.set:
+            print("step_convergence: --make-reference takes the config's scene, no --set")
+            return 1
+        command = shlex.join(["python", *sys.argv])
+        make_reference(args.make_reference, scene, args.workers, command)
+        return 0
+    check = check_against_half_step if args.half_step else check_against_reference
+    print(check(scene, args.workers))
     return 0
 
 

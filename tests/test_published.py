@@ -319,58 +319,6 @@ def test_sim_to_real_prose_quotes_the_published_numbers():
     assert f"not at the 2 sensed {sensed_far} mm off" in prose
 
 
-@pytest.fixture(scope="module")
-def step_convergence():
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(
-        "step_convergence", ROOT / "benchmarks" / "step_convergence.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-@pytest.mark.skipif(not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study here")
-def test_the_step_convergence_set_draws_from_the_published_runs(step_convergence):
-    """``benchmarks/step_convergence.py --draw-from`` reads today's run records (it broke
-    silently when ``planner.goal`` replaced method and rule): an equal share per method, each
-    rollout a late training rollout of its run, drawn the same way twice; the committed set is
-    that draw."""
-    module = step_convergence
-    runs = sorted((ROOT / PUBLISHED_DIR / "planning").glob("*/rollouts.parquet"))
-    drawn = module.draw_set(runs)
-    assert drawn["method"].value_counts().to_dict() == {
-        "deepest_explored": 80,
-        "explored_argmin": 80,
-        "one_level": 80,
-    }
-    iterations = pd.read_parquet(runs[0])["iteration"].max()
-    assert (drawn["iteration"] > iterations / 2).all()
-    assert drawn.equals(module.draw_set(runs))
-    committed, planner = module.read_set(module.SET_PATH)
-    assert committed.equals(drawn)  # the committed set is the published study's draw
-    assert planner == RecordedRun.read(runs[0]).planner
-
-
-@pytest.mark.skipif(not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study here")
-def test_the_step_check_replays_the_deployment_trials_a_study_reports(step_convergence):
-    """``--deployments``: every run's deployment trials, from the training start and from each
-    redeployment's offset starts, as the study's tables count them."""
-    runs = sorted((ROOT / PUBLISHED_DIR / "planning").glob("*/rollouts.parquet"))
-    trials, planner = step_convergence.deployment_trials(runs)
-    assert planner == RecordedRun.read(runs[0]).planner
-    per_run = trials.groupby(["run", "source"]).size()
-    assert set(per_run.index.get_level_values("source")) == {
-        "training start",
-        "start_std_m~0.001",
-    }
-    assert (per_run == planner.deploy_trials).all() and len(per_run) == 2 * len(runs)
-    nominal = trials[trials["source"] == "training start"].groupby("run")["start_x_m"].first()
-    offset = trials[trials["source"] != "training start"]
-    assert (offset["start_x_m"] != offset["run"].map(nominal)).all()
-
-
 @pytest.mark.parametrize("study", PUBLISHED, ids=lambda s: s.name)
 def test_the_first_iterations_draws_are_bit_identical_on_this_machine(study):
     """Same config and seed, same draws on any machine (docs/reproducibility.md): every published

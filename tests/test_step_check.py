@@ -1,0 +1,145 @@
+"""The step check (benchmarks/step_convergence.py): its set, its fine-step reference and the
+paired signs it keeps (docs/simulation.md)."""
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pih.planning.run_record import RecordedRun
+from pih.records.outputs import read_provenance, write_table
+from pih.records.provenance import record
+from pih.study.published import PUBLISHED_DIR
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def step_convergence():
+    spec = importlib.util.spec_from_file_location(
+        "step_convergence", ROOT / "benchmarks" / "step_convergence.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.skipif(not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study here")
+def test_the_step_convergence_set_draws_from_the_published_runs(step_convergence):
+    """``benchmarks/step_convergence.py --draw-from`` reads today's run records (it broke
+    silently when ``planner.goal`` replaced method and rule): an equal share per method, each
+    rollout a late training rollout of its run, drawn the same way twice; the committed set is
+    that draw."""
+    module = step_convergence
+    runs = sorted((ROOT / PUBLISHED_DIR / "planning").glob("*/rollouts.parquet"))
+    drawn = module.draw_set(runs)
+    assert drawn["method"].value_counts().to_dict() == {
+        "deepest_explored": 80,
+        "explored_argmin": 80,
+        "one_level": 80,
+    }
+    iterations = pd.read_parquet(runs[0])["iteration"].max()
+    assert (drawn["iteration"] > iterations / 2).all()
+    assert drawn.equals(module.draw_set(runs))
+    committed, planner = module.read_set(module.SET_PATH)
+    assert committed.equals(drawn)  # the committed set is the published study's draw
+    assert planner == RecordedRun.read(runs[0]).planner
+
+
+@pytest.mark.skipif(not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study here")
+def test_the_step_check_replays_the_deployment_trials_a_study_reports(step_convergence):
+    """``--deployments``: every run's deployment trials, from the training start and from each
+    redeployment's offset starts, as the study's tables count them."""
+    runs = sorted((ROOT / PUBLISHED_DIR / "planning").glob("*/rollouts.parquet"))
+    trials, planner = step_convergence.deployment_trials(runs)
+    assert planner == RecordedRun.read(runs[0]).planner
+    per_run = trials.groupby(["run", "source"]).size()
+    assert set(per_run.index.get_level_values("source")) == {
+        "training start",
+        "start_std_m~0.001",
+    }
+    assert (per_run == planner.deploy_trials).all() and len(per_run) == 2 * len(runs)
+    nominal = trials[trials["source"] == "training start"].groupby("run")["start_x_m"].first()
+    offset = trials[trials["source"] != "training start"]
+    assert (offset["start_x_m"] != offset["run"].map(nominal)).all()
+
+
+def test_paired_signs_are_per_point_source_and_rule(step_convergence):
+    """sign(rule − one-level) of the success rate, one per (point, source, rule); a tie is 0."""
+    rows = pd.DataFrame(
+        [
+            (point, source, method)
+            for point in ("a", "b")
+            for source in ("training start", "offset")
+            for method in ("one_level", "ours", "paper")
+            for _ in range(2)
+        ],
+        columns=["point", "source", "method"],
+    )
+    # Point a: ours beats one-level everywhere, the paper's rule ties; point b: the reverse.
+    wins = {("a", "ours"): [1, 1], ("a", "one_level"): [0, 1], ("a", "paper"): [1, 0]}
+    wins |= {("b", "ours"): [0, 0], ("b", "one_level"): [1, 0], ("b", "paper"): [1, 1]}
+    inserted = np.concatenate(
+        [wins[p, m] for p, _, m in rows[::2].itertuples(index=False, name=None)]
+    ).astype(bool)
+    signs = step_convergence.paired_signs(rows, inserted)
+    assert len(signs) == 2 * 2 * 2
+    assert signs["a", "offset", "ours"] == 1 and signs["a", "offset", "paper"] == 0
+    assert signs["b", "training start", "ours"] == -1
+    assert signs["b", "training start", "paper"] == 1
+
+
+def test_a_reference_made_by_another_drake_is_refused(step_convergence, tmp_path, monkeypatch):
+    """The reference stands for one Drake's physics: another Drake's is refused in one line
+    naming the file and both versions, before any replay."""
+    path = tmp_path / "reference.parquet"
+    provenance = record("step_reference_set", config={"planner": {}})
+    provenance["packages"]["drake"] = "1.51.1"
+    write_table(pd.DataFrame({"inserted": [True]}), path, provenance, {"inserted": ("1", "x")})
+    monkeypatch.setitem(step_convergence.REFERENCE_PATHS, "set", path)
+    with pytest.raises(SystemExit, match=r"reference.parquet: made by Drake 1\.51\.1, not 1\.58"):
+        step_convergence.read_reference("set")
+
+
+def test_the_check_names_what_the_setting_changes(step_convergence):
+    """The check prints every scene key a lever changes against the reference's scene."""
+    from pih.config import to_mapping
+    from pih.scene.config import SceneConfig
+
+    scene = SceneConfig()
+    reference = to_mapping(step_convergence.at_step(scene, step_convergence.REFERENCE_STEP_S))
+    setting = step_convergence.overridden(scene, ["scene.hole.fillet_facets=5"])
+    assert sorted(step_convergence.scene_differences(to_mapping(setting), reference)) == [
+        "hole.fillet_facets=5 (reference 9)",
+        f"solver.retry_time_step_s={scene.solver.retry_time_step_s} (reference 3.125e-05)",
+        f"solver.time_step_s={scene.solver.time_step_s} (reference 6.25e-05)",
+    ]
+
+
+REFERENCES = ("set", "deployments")
+
+
+@pytest.mark.parametrize("part", REFERENCES)
+def test_the_committed_reference_is_the_set_and_the_published_trials(step_convergence, part):
+    """Each committed reference replays exactly what it claims to, at the reference step, under
+    this Drake: the committed set's rollouts, or the published default study's deployment trials
+    (from the training start and from offset starts)."""
+    path = step_convergence.REFERENCE_PATHS[part]
+    if not path.is_file():
+        pytest.skip(f"{path.name} not made yet (--make-reference {part})")
+    reference, planner = step_convergence.read_reference(part)
+    provenance = read_provenance(path)
+    assert provenance["simulator"]["time_step_s"] == step_convergence.REFERENCE_STEP_S
+    assert provenance["config"]["scene"]["solver"]["time_step_s"] == 6.25e-5
+    if part == "set":
+        rows, set_planner = step_convergence.read_set(step_convergence.SET_PATH)
+        assert set_planner == planner
+        assert (reference["varies"] | reference["confirmed"]).all()
+    else:
+        runs = sorted((ROOT / PUBLISHED_DIR / "planning").glob("*/rollouts.parquet"))
+        rows, _ = step_convergence.deployment_trials(runs)
+    keys = [c for c in rows.columns if c != "weights"]
+    pd.testing.assert_frame_equal(reference[keys], rows[keys])
+    assert all(np.array_equal(a, b) for a, b in zip(reference["weights"], rows["weights"]))
