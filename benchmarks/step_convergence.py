@@ -21,6 +21,9 @@ replayed at the setting, give every point's paired sign (each rule against one-l
 source) that the reference gives. The last line is machine-readable:
 ``flips=F of N vs_reference_ms=0.0625 median_dp2_um=D verdict=PASS|FAIL``.
 ``--half-step`` prints the former check (h against h/2, 97 %) as a diagnostic instead.
+``--replay FILE`` writes the set's replay at a setting (with the CPU and BLAS kernel in its
+provenance) and ``--against FILE`` replays the set here and compares it with such a file: how far
+outcomes and P2 move when only the machine does (docs/reproducibility.md).
 
 The set (``step_convergence_set.parquet``, committed) and its recipe: from every given run's
 training rollouts (``phase == 'train'``) in the later half of its iterations (contact-rich: by
@@ -31,6 +34,8 @@ by (run, iteration, rollout); 240 in all (80 per method). ``--draw-from RUN ...`
     python benchmarks/step_convergence.py [--set scene.solver.time_step_s=0.00025] [--workers 2]
     python benchmarks/step_convergence.py --half-step [--set ...]
     python benchmarks/step_convergence.py --make-reference set|deployments [--workers 2]
+    python benchmarks/step_convergence.py --replay default.parquet
+    OPENBLAS_CORETYPE=Sandybridge python benchmarks/step_convergence.py --against default.parquet
     python benchmarks/step_convergence.py --draw-from published/default/planning/*/rollouts.parquet
 """
 
@@ -48,7 +53,6 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
-import yaml
 
 from pih.config import ConfigError, from_mapping, to_mapping
 from pih.planning.config import ONE_LEVEL, PlannerConfig
@@ -57,7 +61,7 @@ from pih.planning.run_record import RecordedRun, recorded_rollout, succeeded
 from pih.records.outputs import read_provenance, write_table
 from pih.records.provenance import package_versions, record
 from pih.scene.config import SceneConfig
-from pih.study.config import load_config, scene_with
+from pih.study.config import load_config, scene_settings, scene_with
 from pih.study.pooling import REDEPLOY_PATTERNS
 
 HERE = Path(__file__).parent
@@ -281,15 +285,7 @@ def read_reference(part: str) -> tuple[pd.DataFrame, PlannerConfig]:
 
 def overridden(scene: SceneConfig, settings: list[str]) -> SceneConfig:
     """The scene with ``--set scene.KEY=VALUE`` overrides (the retry step follows the step)."""
-    overrides = {}
-    for setting in settings:
-        key, sep, value = setting.partition("=")
-        if not sep or not key.startswith("scene."):
-            raise ConfigError(f"--set {setting!r}: expected scene.<section>.<key>=<value>")
-        overrides[key.removeprefix("scene.")] = yaml.safe_load(value)
-    if "solver.time_step_s" in overrides and "solver.retry_time_step_s" not in overrides:
-        overrides["solver.retry_time_step_s"] = overrides["solver.time_step_s"] / 2
-    return scene_with(to_mapping(scene), overrides, "--set")
+    return scene_with(to_mapping(scene), scene_settings(settings), "--set")
 
 
 def per_method(rows: pd.DataFrame, flips: np.ndarray, inserted: dict[str, np.ndarray]) -> None:
@@ -313,6 +309,24 @@ def scene_differences(
     return differences
 
 
+def compare_set(replayed: np.ndarray, reference: pd.DataFrame, label: str) -> tuple[int, float]:
+    """Print how the set's outcomes at a setting (``replay_all``'s rows) compare with
+    ``reference`` (``inserted``, ``p2_x_m``, ``p2_y_m`` per row); (flips, median |ΔP2| in µm)."""
+    inserted, expected = replayed[:, 0] > 0, reference["inserted"].to_numpy()
+    flips = inserted != expected
+    dp2_um = 1e6 * np.hypot(*(replayed[:, 1:] - reference[["p2_x_m", "p2_y_m"]].to_numpy()).T)
+    per_method(reference, flips, {label: inserted, "reference": expected})
+    quantiles = np.quantile(dp2_um, [0.5, 0.9, 0.99, 1.0])
+    print(
+        "  |ΔP2| against the reference (µm): median {:.3g}, 90 % {:.3g}, 99 % {:.3g}, "
+        "max {:.3g}; {} of {} bit-identical".format(
+            *quantiles, int((dp2_um == 0).sum()), len(dp2_um)
+        )
+    )
+    print(f"  set agreement {1 - flips.mean():.1%}")
+    return int(flips.sum()), float(quantiles[0])
+
+
 def check_against_reference(scene: SceneConfig, workers: int) -> str:
     """Replay the set and the deployment trials at ``scene``; the verdict line."""
     reference, planner = read_reference("set")
@@ -326,43 +340,63 @@ def check_against_reference(scene: SceneConfig, workers: int) -> str:
     started = time.perf_counter()
     replayed = replay_all(reference, scene, planner, workers)
     seconds = time.perf_counter() - started
-    inserted, expected = replayed[:, 0] > 0, reference["inserted"].to_numpy()
-    flips = inserted != expected
-    dp2_um = 1e6 * np.hypot(*(replayed[:, 1:] - reference[["p2_x_m", "p2_y_m"]].to_numpy()).T)
     print(f"{len(reference)} set rollouts at {step_ms:g} ms ({seconds:.0f} s, {workers} workers)")
-    per_method(reference, flips, {f"{step_ms:g} ms": inserted, "reference": expected})
+    flips, median_dp2_um = compare_set(replayed, reference, f"{step_ms:g} ms")
     unsure = reference["varies"] & ~reference["confirmed"]
     print(
         f"  the reference: {int(reference['varies'].sum())} rollouts vary among the coarser "
         f"steps, {int(unsure.sum())} of them end otherwise at {1e3 * CONFIRM_STEP_S:g} ms"
     )
 
+    expected = deployments["inserted"].to_numpy()
     deployed = replay_all(deployments, scene, planner, workers)[:, 0] > 0
-    reference_signs = paired_signs(deployments, deployments["inserted"].to_numpy())
+    reference_signs = paired_signs(deployments, expected)
     signs = paired_signs(deployments, deployed)
     changed = signs[signs != reference_signs]
-    print(
-        f"{len(deployments)} deployment trials: {int((deployed != deployments['inserted']).sum())} flip"
-    )
+    print(f"{len(deployments)} deployment trials: {int((deployed != expected).sum())} flip")
     per_method(
-        deployments,
-        deployed != deployments["inserted"].to_numpy(),
-        {f"{step_ms:g} ms": deployed, "reference": deployments["inserted"].to_numpy()},
+        deployments, deployed != expected, {f"{step_ms:g} ms": deployed, "reference": expected}
     )
     for (point, source, rule), sign in changed.items():
         print(
             f"  paired sign changed: {rule} vs one-level at {point}, {source}: "
             f"{reference_signs[point, source, rule]:+d} -> {sign:+d}"
         )
-    agree = 1 - flips.mean()
-    print(
-        f"  set agreement {agree:.1%}; paired signs kept: {len(signs) - len(changed)} of {len(signs)}"
-    )
+    print(f"  paired signs kept: {len(signs) - len(changed)} of {len(signs)}")
+    agree = 1 - flips / len(reference)
     verdict = "PASS" if agree >= AGREEMENT and changed.empty else "FAIL"
     return (
-        f"flips={int(flips.sum())} of {len(reference)} vs_reference_ms={1e3 * REFERENCE_STEP_S:g} "
-        f"median_dp2_um={np.median(dp2_um):.3g} verdict={verdict}"
+        f"flips={flips} of {len(reference)} vs_reference_ms={1e3 * REFERENCE_STEP_S:g} "
+        f"median_dp2_um={median_dp2_um:.3g} verdict={verdict}"
     )
+
+
+def replay_set(scene: SceneConfig, workers: int, output: Path, command: str) -> None:
+    """The set replayed at ``scene``, written with its provenance (the CPU and BLAS kernel
+    among it), to compare with a replay elsewhere (``--against``)."""
+    rows, planner = read_set(SET_PATH)
+    replayed = replay_all(rows, scene, planner, workers)
+    frame = rows.assign(inserted=replayed[:, 0] > 0, p2_x_m=replayed[:, 1], p2_y_m=replayed[:, 2])
+    provenance = record(
+        "step_set_replay",
+        config={"scene": to_mapping(scene), "planner": to_mapping(planner)},
+        inputs=[SET_PATH],
+        extra={"command": command},
+    )
+    write_table(frame, output, provenance, UNITS)
+    print(f"{output}: {len(frame)} rollouts, {int(frame['inserted'].sum())} insert")
+
+
+def check_against_replay(scene: SceneConfig, workers: int, against: Path) -> str:
+    """The set at ``scene`` here against a replay of it made elsewhere (another CPU, BLAS
+    kernel or allocator): how far the physics moves when only the machine does."""
+    reference = pd.read_parquet(against)
+    made = read_provenance(against)
+    _, planner = read_set(SET_PATH)
+    print(f"against {against}: made on {made['machine']}, allocator {made['allocator']}")
+    replayed = replay_all(reference, scene, planner, workers)
+    flips, median_dp2_um = compare_set(replayed, reference, "this machine")
+    return f"flips={flips} of {len(reference)} vs={against} median_dp2_um={median_dp2_um:.3g}"
 
 
 def check_against_half_step(scene: SceneConfig, workers: int) -> str:
@@ -396,6 +430,8 @@ def main() -> int:
     mode.add_argument("--half-step", action="store_true", help="the former check: h against h/2")
     mode.add_argument("--make-reference", choices=sorted(REFERENCE_PATHS))
     mode.add_argument("--draw-from", nargs="+", type=Path, metavar="ROLLOUTS")
+    mode.add_argument("--replay", type=Path, metavar="FILE", help="write the set's replay here")
+    mode.add_argument("--against", type=Path, metavar="FILE", help="compare with such a replay")
     args = parser.parse_args()
 
     if args.draw_from:
@@ -416,8 +452,14 @@ def main() -> int:
         command = shlex.join(["python", *sys.argv])
         make_reference(args.make_reference, scene, args.workers, command)
         return 0
-    check = check_against_half_step if args.half_step else check_against_reference
-    print(check(scene, args.workers))
+    if args.replay:
+        replay_set(scene, args.workers, args.replay, shlex.join(["python", *sys.argv]))
+    elif args.against:
+        print(check_against_replay(scene, args.workers, args.against))
+    elif args.half_step:
+        print(check_against_half_step(scene, args.workers))
+    else:
+        print(check_against_reference(scene, args.workers))
     return 0
 
 

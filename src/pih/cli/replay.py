@@ -11,28 +11,20 @@ from pih.cli.common import first_line
 def replay(run: Path, query: str, output: Path | None, settings: list[str]) -> int:
     """Simulate the rows ``query`` selects again, optionally under ``settings``; one line each."""
     import numpy as np
-    import yaml
 
     from pih.cli.row_query import select_rows
-    from pih.config import ConfigError, to_mapping
+    from pih.config import to_mapping
     from pih.planning.planner import Planner
     from pih.planning.run_record import RecordedRun, recorded_pose, recorded_rollout, succeeded
     from pih.records.provenance import record as provenance_record
-    from pih.study.config import scene_with
+    from pih.study.config import scene_settings, scene_with
     from pih.study.recordings import record_insertion
 
     try:
         recorded = RecordedRun.read(run / "rollouts.parquet")
         rollouts, config = recorded.rollouts, recorded.record["config"]
         rows = select_rows(rollouts, query)
-        overrides = {}
-        for setting in settings:
-            key, sep, value = setting.partition("=")
-            if not sep or not key.startswith("scene."):
-                raise ConfigError(f"--set {setting!r}: expected scene.<section>.<key>=<value>")
-            overrides[key.removeprefix("scene.")] = yaml.safe_load(value)
-        if "solver.time_step_s" in overrides and "solver.retry_time_step_s" not in overrides:
-            overrides["solver.retry_time_step_s"] = overrides["solver.time_step_s"] / 2
+        overrides = scene_settings(settings)
         scene = scene_with(to_mapping(recorded.scene), overrides, "--set")
     except Exception as error:  # noqa: BLE001 - a bad run, query or setting: one clear line
         print(f"pih replay {run}: {first_line(error)}", file=sys.stderr)

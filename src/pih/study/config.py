@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import yaml
 
 from pih.config import (
     ConfigError,
@@ -332,6 +333,21 @@ def scene_with(scene: Mapping[str, Any], overrides: Mapping[str, Any], key: str)
         return from_mapping(SceneConfig, data["scene"], "scene")
     except ConfigError as error:
         raise ConfigError(f"{key}: {error}") from None
+
+
+def scene_settings(settings: list[str], option: str = "--set") -> dict[str, Any]:
+    """Dotted scene overrides from command-line ``scene.KEY=VALUE`` settings (values read as
+    YAML, never evaluated), for :func:`scene_with`; a step set alone brings its retry at half
+    of it, as the study's setting has."""
+    overrides = {}
+    for setting in settings:
+        key, sep, value = setting.partition("=")
+        if not sep or not key.startswith("scene."):
+            raise ConfigError(f"{option} {setting!r}: expected scene.<section>.<key>=<value>")
+        overrides[key.removeprefix("scene.")] = yaml.safe_load(value)
+    if "solver.time_step_s" in overrides and "solver.retry_time_step_s" not in overrides:
+        overrides["solver.retry_time_step_s"] = overrides["solver.time_step_s"] / 2
+    return overrides
 
 
 OWN_SECTIONS = ("sweep", "variants", "figure_point", "validation.variants")
