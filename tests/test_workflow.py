@@ -443,3 +443,58 @@ def test_pih_aggregate_reproduces_the_workflows_tables(smoke_run, tmp_path):
         columns = [*keys, "runs", "deploy_success_rate"]
         expected = workflow[columns].sort_values(keys).reset_index(drop=True)
         assert pooled[columns].sort_values(keys).reset_index(drop=True).equals(expected), name
+
+
+@pytest.mark.slow
+def test_a_study_published_in_parts_gets_the_workflows_tables(smoke_run, tmp_path):
+    """Runs published from two results trees (two sessions) make the same headline as the one
+    tree they came from; a tree is refused whole when a run it holds is published already with
+    other rollouts, and a run published twice with the same rollouts is kept once."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from pih.study.published import PublishedStudy, publish_part, results_block
+
+    study = PublishedStudy(
+        "smoke",
+        ("config/config.yaml", "config/smoke.yaml"),
+        "smoke study",
+        ("planning/*/rollouts.parquet", "planning/*/redeploy_*.parquet"),
+        in_parts=True,
+    )
+    runs = sorted((smoke_run / "results" / "planning").glob("*/rollouts.parquet"))
+    parts = {
+        name: [r.parent for r in runs if (f"start_x_m~{start}_" in r.parent.name)]
+        for name, start in (("a", "-0.035"), ("b", "-0.031"))
+    }
+    for name, dirs in parts.items():
+        for run in dirs:
+            shutil.copytree(run, tmp_path / name / "planning" / run.name)
+    assert publish_part(tmp_path / "a", study, root=smoke_run) == (3, 3)
+    published = smoke_run / study.directory
+    assert "3 of its 6 runs so far" in " ".join(results_block(published, study).split())
+    assert not (published / "planning" / "summary").exists()
+    assert publish_part(tmp_path / "a", study, root=smoke_run) == (0, 3)
+
+    other = tmp_path / "c" / "planning" / parts["a"][0].name
+    shutil.copytree(parts["a"][0], other)
+    path = other / "rollouts.parquet"
+    table = pq.read_table(path)  # the first rollout's outcome flipped, metadata kept
+    index = table.schema.get_field_index("success")
+    flipped = pa.array([not table["success"][0].as_py(), *table["success"].to_pylist()[1:]])
+    pq.write_table(table.set_column(index, table.schema.field(index), flipped), path)
+    assert pq.read_schema(path).metadata == table.schema.metadata
+    with pytest.raises(ValueError, match="published already, with other rollouts"):
+        publish_part(tmp_path / "c", study, root=smoke_run)
+
+    assert publish_part(tmp_path / "b", study, root=smoke_run) == (3, 0)
+    workflow = pd.read_parquet(smoke_run / "results" / "planning" / "summary" / "success.parquet")
+    assembled = pd.read_parquet(published / "planning" / "summary" / "success.parquet")
+    columns = ["method", "runs", "deploy_success_rate", "deploy_ci_low", "deploy_ci_high"]
+    workflow, assembled = (t[t["dimension"] == "all"][columns] for t in (workflow, assembled))
+    assert (
+        assembled.sort_values("method")
+        .reset_index(drop=True)
+        .equals(workflow.sort_values("method").reset_index(drop=True))
+    )
+    assert "| one_level |" in results_block(published, study)

@@ -26,10 +26,12 @@
   (deployment success inside OLD's intervals, paired signs, validation r; exit 0 when they hold)
   and its data (headline numbers and planning runs' data, each that differs named, with the
   likely cause from the provenance: another CPU, Drake or code);
-- ``pih publish [RESULTS] [--study default|sim_to_real]``: copy a finished run of a published
-  study (data, tables, figures, provenance; not the recordings) into ``published/<study>``, the
-  files README's numbers come from, and regenerate README's results for it; refused when
-  RESULTS is not that study's run at this code;
+- ``pih publish [RESULTS] [--study default|sim_to_real|paper]``: copy a finished run of a
+  published study (data, tables, figures, provenance; not the recordings) into
+  ``published/<study>``, the files README's numbers come from, and regenerate README's results
+  for it; refused when RESULTS is not that study's run at this code. The paper-scale study is
+  published in parts: each call adds the runs RESULTS holds, and its tables are made once all
+  33 are in;
 - ``pih status [DIR] [--configfile F ...]``: a study's progress, from the files in its working
   directory ``DIR`` (default ``.``): planning and validation runs done, running (with their
   iteration) and pending, and the time left (:mod:`pih.workflow.status`);
@@ -176,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
     publish.add_argument("results", type=Path, nargs="?", default=Path("results"))
     publish.add_argument(
         "--study",
-        choices=["default", "sim_to_real"],
+        choices=["default", "sim_to_real", "paper"],
         default="default",
         help="which published study RESULTS is a run of (default: default)",
     )

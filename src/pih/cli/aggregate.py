@@ -13,11 +13,8 @@ def aggregate(paths: list[Path], output_dir: Path, reference_variant: str | None
     import pandas as pd
 
     from pih.config import ConfigError
-    from pih.records.outputs import write_table
-    from pih.records.provenance import record as provenance_record
-    from pih.study.aggregate import planning_tables
-    from pih.study.planning_summary import write_planning_summary
-    from pih.study.pooling import SOURCE_COLUMNS, find_outputs, pool
+    from pih.study.planning_summary import write_pooled_summary
+    from pih.study.pooling import find_outputs, pool
 
     if output_dir.exists() and not output_dir.is_dir():
         print(f"pih aggregate: --output-dir {output_dir}: not a directory", file=sys.stderr)
@@ -41,14 +38,7 @@ def aggregate(paths: list[Path], output_dir: Path, reference_variant: str | None
                 file=sys.stderr,
             )
             return 1
-    tables = planning_tables(
-        pooled.runs, pooled.summaries, pooled.deployments, keys, reference_variant
-    )
-    provenance = provenance_record(
-        "aggregate", config={"sweep_keys": keys}, inputs=sorted(set(pooled.sources["file"]))
-    )
-    write_planning_summary(output_dir, pooled.runs, tables, keys, provenance)
-    write_table(pooled.sources, output_dir / "sources.parquet", provenance, SOURCE_COLUMNS)
+    tables = write_pooled_summary(pooled, output_dir, reference_variant)
     success = tables.success
     overall = success[success["dimension"] == "all"]
     with pd.option_context("display.width", 200, "display.max_columns", 12):

@@ -11,7 +11,13 @@ from pih.cli.common import first_line
 
 def publish(results: Path, name: str) -> int:
     """Copy ``results`` into ``published/<name>`` and regenerate the study's results block."""
-    from pih.study.published import PUBLISHED_STUDIES, publish, readme_with_results, results_block
+    from pih.study.published import (
+        PUBLISHED_STUDIES,
+        publish,
+        publish_part,
+        readme_with_results,
+        results_block,
+    )
 
     study = PUBLISHED_STUDIES[name]
     page = Path(study.page)
@@ -22,11 +28,15 @@ def publish(results: Path, name: str) -> int:
         print(f"pih publish: {page} has no {study.markers[0]} line", file=sys.stderr)
         return 1
     try:
-        copied = publish(results, study)
+        if study.in_parts:
+            added, missing = publish_part(results, study)
+            copied = f"{added} runs added from {results}, {missing} still to come"
+        else:
+            copied = f"{publish(results, study)} files from {results}"
     except (OSError, ValueError) as error:
         print(f"pih publish: {first_line(error)}", file=sys.stderr)
         return 1
     block = results_block(study.directory, study)
     page.write_text(readme_with_results(page.read_text(), block, study))
-    print(f"{study.directory}: {copied} files from {results}; {page}'s results for it")
+    print(f"{study.directory}: {copied}; {page}'s results for it")
     return 0

@@ -10,6 +10,7 @@ from typing import Any
 import pandas as pd
 
 from pih.records.outputs import markdown_table, write_table, write_text
+from pih.records.provenance import record as provenance_record
 from pih.study import plots
 from pih.study.aggregate import (
     BAND_COLUMNS,
@@ -20,8 +21,10 @@ from pih.study.aggregate import (
     compared_keys,
     figure_bands,
     level_columns,
+    planning_tables,
     robustness_columns,
 )
+from pih.study.pooling import SOURCE_COLUMNS, PooledRuns
 
 
 def write_planning_summary(
@@ -75,3 +78,21 @@ def write_planning_summary(
         directory / "fig_deploy_success.png",
         provenance=record,
     )
+
+
+def write_pooled_summary(
+    pooled: PooledRuns, directory: Path, reference_variant: str | None = None
+) -> PlanningTables:
+    """Pooled runs' (:func:`pih.study.pooling.pool`) planning tables, their summary files under
+    ``directory`` with ``sources.parquet`` (which file each training's rows came from): ``pih
+    aggregate``'s work, and a study published in parts'."""
+    keys = pooled.sweep_keys
+    tables = planning_tables(
+        pooled.runs, pooled.summaries, pooled.deployments, keys, reference_variant
+    )
+    record = provenance_record(
+        "aggregate", config={"sweep_keys": keys}, inputs=sorted(set(pooled.sources["file"]))
+    )
+    write_planning_summary(directory, pooled.runs, tables, keys, record)
+    write_table(pooled.sources, Path(directory) / "sources.parquet", record, SOURCE_COLUMNS)
+    return tables

@@ -38,6 +38,9 @@ class PublishedStudy:
     """What :func:`publish` copies from the study's results tree."""
     page: str = "README.md"
     """The page whose results block :func:`results_block` generates from this study."""
+    in_parts: bool = False
+    """Published run by run from several results trees (sessions, machines) made at one rollout
+    code, config and Drake (:func:`publish_part`); its tables are made once every run is in."""
     rerun_pending: str = ""
     """Why the published run is known to be stale (:func:`stale_reasons`) and when it is re-run;
     README's block says it, and the staleness test expects the run stale while it is set."""
@@ -72,6 +75,14 @@ PUBLISHED_STUDIES = {
             ("config/config.yaml",),
             "default study",
             (*PLANNING_GLOBS, "validation/*.*", "whitney/*.parquet"),
+        ),
+        # The paper's 11 starts; the default's 12 runs are among its 33, draw for draw.
+        PublishedStudy(
+            "paper",
+            ("config/config.yaml", "config/paper.yaml"),
+            "paper-scale study",
+            ("planning/*/rollouts.parquet", "planning/*/redeploy_*.parquet"),
+            in_parts=True,
         ),
         # Its validation is the default's (two of its variants): only the compared numbers.
         PublishedStudy(
@@ -113,20 +124,7 @@ def publish(results: Path, study: PublishedStudy, root: Path = Path(".")) -> int
     if reasons:
         more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
         raise ValueError(f"{results} is not a run of the {study.title}: {reasons[0]}{more}")
-    destination = root / study.directory
-    destination.parent.mkdir(parents=True, exist_ok=True)
-    # Copied beside it first, so that an interrupted copy leaves the published study whole.
-    staging = Path(tempfile.mkdtemp(prefix=f".{study.name}-", dir=destination.parent))
-    try:
-        for source in files:
-            target = staging / source.relative_to(results)
-            target.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(source, target)
-        if destination.exists():
-            shutil.rmtree(destination)
-        staging.rename(destination)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
+    _copy_whole(files, results, root / study.directory)
     return len(files)
 
 
@@ -143,32 +141,107 @@ def stale_reasons(
     Drake (default: the installed one) does."""
     code_sha256 = code_sha256 or rollout_code_hash()
     drake = drake or importlib.metadata.version("drake")
-    runs = {}
-    for path in sorted((published / "planning").glob("*/rollouts.parquet")):
-        runs[point_key(read_provenance(path)["sweep_point"])] = path
+    runs = _runs_by_point(published / "planning")
     reasons = [f"sweep point {key} is not published" for key in sorted(set(expected) - set(runs))]
     reasons += [
         f"{runs[key].parent.name} is not a sweep point of the config"
         for key in sorted(set(runs) - set(expected))
     ]
     for key in sorted(set(runs) & set(expected)):
-        path = runs[key]
-        for data in [path, *sorted(path.parent.glob("redeploy_*.parquet"))]:
-            made = read_provenance(data)
-            if made.get("rollout_code_sha256") != code_sha256:
-                reasons.append(f"{data.relative_to(published)}: made by other rollout code")
-            made_by = made.get("packages", {}).get("drake")
-            if made_by != drake:
-                reasons.append(
-                    f"{data.relative_to(published)}: made by Drake {made_by}, not {drake}"
-                )
-        recorded = read_provenance(path)["config"]
-        for section in ("scene", "planner"):
-            now = json.loads(canonical_json(expected[key][section]))
-            if recorded.get(section) != now:
-                keys = ", ".join(_differing_keys(recorded.get(section) or {}, now))
-                reasons.append(f"{path.parent.name}: its {section} config differs in {keys}")
+        reasons += run_stale_reasons(runs[key], expected[key], published, code_sha256, drake)
     return reasons
+
+
+def run_stale_reasons(
+    path: Path,
+    sections: Mapping[str, object],
+    root: Path,
+    code_sha256: str | None = None,
+    drake: str | None = None,
+) -> list[str]:
+    """Why one planning run (its ``rollouts.parquet`` and redeployments) is not what the
+    repository computes for its sweep point's resolved ``sections`` (:func:`stale_reasons`);
+    paths are named relative to ``root``."""
+    code_sha256 = code_sha256 or rollout_code_hash()
+    drake = drake or importlib.metadata.version("drake")
+    reasons = []
+    for data in [path, *sorted(path.parent.glob("redeploy_*.parquet"))]:
+        made = read_provenance(data)
+        if made.get("rollout_code_sha256") != code_sha256:
+            reasons.append(f"{data.relative_to(root)}: made by other rollout code")
+        made_by = made.get("packages", {}).get("drake")
+        if made_by != drake:
+            reasons.append(f"{data.relative_to(root)}: made by Drake {made_by}, not {drake}")
+    recorded = read_provenance(path)["config"]
+    for section in ("scene", "planner"):
+        now = json.loads(canonical_json(sections[section]))
+        if recorded.get(section) != now:
+            keys = ", ".join(_differing_keys(recorded.get(section) or {}, now))
+            reasons.append(f"{path.parent.name}: its {section} config differs in {keys}")
+    return reasons
+
+
+def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -> tuple[int, int]:
+    """Add the runs of ``study`` that ``results`` holds to its published directory, each with its
+    redeployments (runs of other sweep points are left out); (runs added, runs still missing).
+    Refused in one line before anything is copied: a run that is not what this repository
+    computes (:func:`run_stale_reasons`), or one already published whose rollouts differ. Each
+    run's provenance says where it was made (host, CPU, code version, date). Once every run of
+    the study is in, its planning tables are made from them (``planning/summary``)."""
+    from pih.study.planning_summary import write_pooled_summary
+    from pih.study.pooling import find_outputs, pool
+
+    expected = expected_runs(tuple(str(root / f) for f in study.config_files))
+    destination = root / study.directory / "planning"
+    published = _runs_by_point(destination)
+    ours = {k: p for k, p in _runs_by_point(results / "planning").items() if k in expected}
+    if not ours:
+        raise FileNotFoundError(f"{results}: no run of the {study.title}")
+    reasons = [r for k, p in ours.items() for r in run_stale_reasons(p, expected[k], results)]
+    reasons += [
+        f"{path.parent.name}: published already, with other rollouts"
+        for key, path in ours.items()
+        if key in published and not pd.read_parquet(path).equals(pd.read_parquet(published[key]))
+    ]
+    if reasons:
+        more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
+        raise ValueError(f"{results}: {reasons[0]}{more}")
+    added = 0
+    for key, path in sorted(ours.items()):
+        if key in published:
+            continue
+        files = [path, *sorted(path.parent.glob("redeploy_*.parquet"))]
+        _copy_whole(files, path.parent, destination / path.parent.name)
+        added += 1
+    missing = len(set(expected) - set(_runs_by_point(destination)))
+    if not missing:
+        write_pooled_summary(pool(*find_outputs([destination])), destination / "summary")
+    return added, missing
+
+
+def _runs_by_point(planning: Path) -> dict[str, Path]:
+    """:func:`point_key` of each run under a ``planning`` directory -> its ``rollouts.parquet``."""
+    return {
+        point_key(read_provenance(path)["sweep_point"]): path
+        for path in sorted(planning.glob("*/rollouts.parquet"))
+    }
+
+
+def _copy_whole(files: list[Path], source: Path, destination: Path) -> None:
+    """Copy ``files`` (under ``source``) to ``destination``, replacing it: copied beside it
+    first, so that an interrupted copy leaves what was there whole."""
+    destination.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{destination.name}-", dir=destination.parent))
+    try:
+        for file in files:
+            target = staging / file.relative_to(source)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(file, target)
+        if destination.exists():
+            shutil.rmtree(destination)
+        staging.rename(destination)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def point_key(point: Mapping[str, object]) -> str:
@@ -199,6 +272,8 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
     from pih.study.summary import perturbed_pairs, planning_rows
 
     tables = published / "planning" / "summary"
+    if study.in_parts and not tables.is_dir():
+        return _in_progress_block(published, study)
     success, robustness, paired = (
         pd.read_parquet(tables / f"{name}.parquet") for name in ("success", "robustness", "paired")
     )
@@ -223,6 +298,26 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
             end,
         ]
     )
+
+
+def _in_progress_block(published: Path, study: PublishedStudy) -> str:
+    """A study published in parts, before its last run is in: how far it is, and from where."""
+    root = Path(published).parents[1]
+    expected = expected_runs(tuple(str(root / f) for f in study.config_files))
+    runs = _runs_by_point(published / "planning")
+    made = [read_provenance(path) for path in runs.values()]
+    sources = sorted(
+        {f"`{r['code_version']}` on {r['host']} ({r['created_utc'][:10]})" for r in made}
+    )
+    drake = sorted({r.get("packages", {}).get("drake", "?") for r in made})
+    text = (
+        f"The {study.title} (`{study.directory}/`) is published in parts: {len(runs)} of its "
+        f"{len(expected)} runs so far"
+        + (f" (Drake {', '.join(drake)}; made at {', '.join(sources)})" if runs else "")
+        + "; its tables come once every run is in."
+    )
+    begin, end = study.markers
+    return "\n\n".join([begin, textwrap.fill(text, 100), end])
 
 
 def readme_with_results(
