@@ -219,6 +219,8 @@ def paired_signs(rows: pd.DataFrame, inserted: np.ndarray) -> pd.Series:
         .unstack("method")
     )
     rules = [m for m in rates.columns if m != "one_level"]
+    if "one_level" not in rates or rates.isna().any(axis=None):
+        raise SystemExit("the deployment trials do not hold every method at every point")
     return np.sign(rates[rules].sub(rates["one_level"], axis=0)).stack().astype(int)
 
 
@@ -266,7 +268,10 @@ def make_reference(part: str, scene: SceneConfig, workers: int, command: str) ->
     write_table(frame, REFERENCE_PATHS[part], provenance, units)
     print(f"{REFERENCE_PATHS[part]}: {len(frame)} rollouts, {int(frame['inserted'].sum())} insert")
     if part == "set":
-        print(f"  {int(varies.sum())} vary among the steps; {int(confirmed.sum())} confirmed")
+        print(
+            f"  {int(varies.sum())} vary among the steps, {int(confirmed[varies].sum())} of them "
+            f"end at {1e3 * CONFIRM_STEP_S:g} ms as at {1e3 * REFERENCE_STEP_S:g} ms"
+        )
 
 
 def read_reference(part: str) -> tuple[pd.DataFrame, PlannerConfig]:
@@ -397,6 +402,9 @@ def check_against_replay(scene: SceneConfig, workers: int, against: Path) -> str
     made = read_provenance(against)
     _, planner = read_set(SET_PATH)
     print(f"against {against}: made on {made['machine']}, allocator {made['allocator']}")
+    differences = scene_differences(to_mapping(scene), made["config"]["scene"])
+    if differences:
+        raise SystemExit(f"{against} was replayed at another setting: {'; '.join(differences)}")
     replayed = replay_all(reference, scene, planner, workers)
     flips, median_dp2_um = compare_set(replayed, reference, "this machine")
     return f"flips={flips} of {len(reference)} vs={against} median_dp2_um={median_dp2_um:.3g}"

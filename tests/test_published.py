@@ -194,7 +194,7 @@ def test_readme_reports_only_published_numbers(study):
     default's block without a published study says so and holds no table."""
     begin, end_marker = study.markers
     readme = (ROOT / study.page).read_text()
-    if (ROOT / study.directory).is_dir():
+    if (ROOT / study.directory).is_dir() or study.in_parts:
         start, end = readme.index(begin), readme.index(end_marker) + len(end_marker)
         assert readme[start:end] == results_block(ROOT / study.directory, study)
     elif study.name == "default":
@@ -353,13 +353,13 @@ def test_the_first_iterations_draws_are_bit_identical_on_this_machine(study):
         assert np.array_equal(np.array([r.weights for r in drawn]), recorded_weights), path
 
 
-def test_a_study_in_parts_takes_current_runs_and_refuses_stale_ones(tmp_path):
+def test_a_study_in_parts_takes_current_runs_and_refuses_stale_ones(tmp_path, monkeypatch):
     """Each part adds the runs of the study a tree holds (not the others); a run made by another
     Drake is refused in one line, before anything is copied; until the last run is in, the
     study's block says how far it is."""
     from pih.records.outputs import write_table
     from pih.records.provenance import record
-    from pih.study.published import PublishedStudy, publish_part
+    from pih.study.published import Part, PublishedStudy, publish_part
 
     shutil.copytree(ROOT / "config", tmp_path / "config")
     (tmp_path / "config" / "two.yaml").write_text(
@@ -376,23 +376,36 @@ def test_a_study_in_parts_takes_current_runs_and_refuses_stale_ones(tmp_path):
     rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
     units = {"phase": ("", "phase"), "success": ("1", "inserted")}
 
-    def tree(name: str, start: float, drake: str | None = None) -> Path:
+    def tree(name: str, start: float, drake: str | None = None, finished: bool = True) -> Path:
         point = {"planner.start_x_m": start, "planner.goal": "deepest_explored"}
         provenance = record("plan", point=point, config=expected[point_key(point)])
         provenance["packages"]["drake"] = drake or provenance["packages"]["drake"]
         run = tmp_path / name / "planning" / f"start_x_m~{start}_goal~deepest_explored"
         write_table(rows, run / "rollouts.parquet", provenance, units)
+        if finished:
+            write_table(rows, run / "redeploy_start_std_m~0.001.parquet", provenance, units)
         stray = tmp_path / name / "planning" / "seed~7" / "rollouts.parquet"  # another study's
         write_table(rows, stray, record("plan", point={"planner.seed": 7}, config={}), units)
         return tmp_path / name
 
-    assert publish_part(tree("first", -0.04), study, root=tmp_path) == (1, 1)
+    # A run whose redeployment is not there yet is left out until it is.
+    assert publish_part(tree("early", -0.04, finished=False), study, root=tmp_path) == Part(0, 1, 2)
+    assert publish_part(tree("first", -0.04), study, root=tmp_path) == Part(1, 0, 1)
     published = tmp_path / study.directory
-    assert [p.name for p in (published / "planning").iterdir()] == [
-        "start_x_m~-0.04_goal~deepest_explored"
+    run = published / "planning" / "start_x_m~-0.04_goal~deepest_explored"
+    assert sorted(p.name for p in run.iterdir()) == [
+        "redeploy_start_std_m~0.001.parquet",
+        "rollouts.parquet",
     ]
     block = " ".join(results_block(published, study).split())
     assert "published in parts: 1 of its 2 runs so far" in block
     with pytest.raises(ValueError, match=r"made by Drake 1\.51\.1, not"):
         publish_part(tree("old", -0.03, drake="1.51.1"), study, root=tmp_path)
     assert len(list((published / "planning").iterdir())) == 1
+    # A part made after an upgrade cannot join runs of the old physics: those are stale now.
+    real = importlib.metadata.version
+    monkeypatch.setattr(
+        importlib.metadata, "version", lambda name: "9.9.9" if name == "drake" else real(name)
+    )
+    with pytest.raises(ValueError, match=r"-0\.04_goal~deepest_explored/rollouts.parquet: made by"):
+        publish_part(tree("next", -0.03, drake="9.9.9"), study, root=tmp_path)

@@ -204,6 +204,7 @@ def test_the_rule_picks_per_contact_model_the_admissible_variant_with_the_best_w
     primary = pooled.xs("chamfer_start", level="alignment")
     assert primary.loc["f_x_for_f_z", "r_f_x"] > primary.loc["balanced", "r_f_x"]
     assert primary.loc["f_x_for_f_z", "r_f_z"] < primary.loc["balanced", "r_f_z"]
+    assert primary.loc["f_x_for_f_z", "admissible"]  # it loses on the weaker r, not on Table 2
     assert primary.loc["peak_off", "r_min"] > primary.loc["balanced", "r_min"]
     assert primary.loc["peak_off", "max_rel_err_pct"] > ADMISSIBLE_TABLE2_PCT
     assert primary.loc["balanced", "max_rel_err_pct"] <= ADMISSIBLE_TABLE2_PCT

@@ -453,7 +453,7 @@ def test_a_study_published_in_parts_gets_the_workflows_tables(smoke_run, tmp_pat
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from pih.study.published import PublishedStudy, publish_part, results_block
+    from pih.study.published import Part, PublishedStudy, publish_part, results_block
 
     study = PublishedStudy(
         "smoke",
@@ -470,11 +470,11 @@ def test_a_study_published_in_parts_gets_the_workflows_tables(smoke_run, tmp_pat
     for name, dirs in parts.items():
         for run in dirs:
             shutil.copytree(run, tmp_path / name / "planning" / run.name)
-    assert publish_part(tmp_path / "a", study, root=smoke_run) == (3, 3)
+    assert publish_part(tmp_path / "a", study, root=smoke_run) == Part(3, 0, 3)
     published = smoke_run / study.directory
     assert "3 of its 6 runs so far" in " ".join(results_block(published, study).split())
     assert not (published / "planning" / "summary").exists()
-    assert publish_part(tmp_path / "a", study, root=smoke_run) == (0, 3)
+    assert publish_part(tmp_path / "a", study, root=smoke_run) == Part(0, 0, 3)
 
     other = tmp_path / "c" / "planning" / parts["a"][0].name
     shutil.copytree(parts["a"][0], other)
@@ -487,7 +487,7 @@ def test_a_study_published_in_parts_gets_the_workflows_tables(smoke_run, tmp_pat
     with pytest.raises(ValueError, match="published already, with other rollouts"):
         publish_part(tmp_path / "c", study, root=smoke_run)
 
-    assert publish_part(tmp_path / "b", study, root=smoke_run) == (3, 0)
+    assert publish_part(tmp_path / "b", study, root=smoke_run) == Part(3, 0, 0)
     workflow = pd.read_parquet(smoke_run / "results" / "planning" / "summary" / "success.parquet")
     assembled = pd.read_parquet(published / "planning" / "summary" / "success.parquet")
     columns = ["method", "runs", "deploy_success_rate", "deploy_ci_low", "deploy_ci_high"]

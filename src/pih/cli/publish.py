@@ -29,8 +29,11 @@ def publish(results: Path, name: str) -> int:
         return 1
     try:
         if study.in_parts:
-            added, missing = publish_part(results, study)
-            copied = f"{added} runs added from {results}, {missing} still to come"
+            part = publish_part(results, study)
+            copied = (
+                f"{part.added} runs added from {results} ({part.unfinished} left out, their "
+                f"redeployments unfinished), {part.missing} still to come"
+            )
         else:
             copied = f"{publish(results, study)} files from {results}"
     except (OSError, ValueError) as error:

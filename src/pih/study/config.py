@@ -21,7 +21,7 @@ import re
 import sys
 from collections import Counter
 from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -345,8 +345,12 @@ def scene_settings(settings: list[str], option: str = "--set") -> dict[str, Any]
         if not sep or not key.startswith("scene."):
             raise ConfigError(f"{option} {setting!r}: expected scene.<section>.<key>=<value>")
         overrides[key.removeprefix("scene.")] = yaml.safe_load(value)
-    if "solver.time_step_s" in overrides and "solver.retry_time_step_s" not in overrides:
-        overrides["solver.retry_time_step_s"] = overrides["solver.time_step_s"] / 2
+    step = overrides.get("solver.time_step_s")
+    if step is not None and "solver.retry_time_step_s" not in overrides:
+        # YAML 1.1 reads 1e-4 (no dot) as a string; the scene's own check names a bad value.
+        with suppress(TypeError, ValueError):
+            overrides["solver.retry_time_step_s"] = float(step) / 2
+            overrides["solver.time_step_s"] = float(step)
     return overrides
 
 

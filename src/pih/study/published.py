@@ -181,42 +181,71 @@ def run_stale_reasons(
     return reasons
 
 
-def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -> tuple[int, int]:
-    """Add the runs of ``study`` that ``results`` holds to its published directory, each with its
-    redeployments (runs of other sweep points are left out); (runs added, runs still missing).
-    Refused in one line before anything is copied: a run that is not what this repository
-    computes (:func:`run_stale_reasons`), or one already published whose rollouts differ. Each
-    run's provenance says where it was made (host, CPU, code version, date). Once every run of
-    the study is in, its planning tables are made from them (``planning/summary``)."""
+@dataclass(frozen=True)
+class Part:
+    """What one :func:`publish_part` call did."""
+
+    added: int
+    """runs copied in"""
+    unfinished: int
+    """runs of the study in the tree whose redeployments are not all there: left out"""
+    missing: int
+    """runs of the study still to come"""
+
+
+def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -> Part:
+    """Add the finished runs of ``study`` that ``results`` holds (each with every redeployment
+    its config makes) to its published directory; runs of other sweep points, and runs whose
+    redeployments are not all there yet, are left out. Refused in one line before anything is
+    copied: a run, new or published before, that is not what this repository computes
+    (:func:`run_stale_reasons`: so every part has one rollout code, config and Drake), or one
+    already published whose rollouts differ. Each run's provenance says where it was made
+    (host, CPU, code version, date). Once every run is in, the study's planning tables are made
+    from them (``planning/summary``)."""
     from pih.study.planning_summary import write_pooled_summary
     from pih.study.pooling import find_outputs, pool
 
-    expected = expected_runs(tuple(str(root / f) for f in study.config_files))
+    config_files = tuple(str(root / f) for f in study.config_files)
+    expected, redeployments = expected_runs(config_files), expected_redeployments(config_files)
     destination = root / study.directory / "planning"
     published = _runs_by_point(destination)
     ours = {k: p for k, p in _runs_by_point(results / "planning").items() if k in expected}
     if not ours:
         raise FileNotFoundError(f"{results}: no run of the {study.title}")
-    reasons = [r for k, p in ours.items() for r in run_stale_reasons(p, expected[k], results)]
+    finished = {
+        key: path
+        for key, path in ours.items()
+        if redeployments <= {f.name for f in path.parent.glob("redeploy_*.parquet")}
+    }
+    reasons = [r for k, p in finished.items() for r in run_stale_reasons(p, expected[k], results)]
+    reasons += [r for k, p in published.items() for r in run_stale_reasons(p, expected[k], root)]
     reasons += [
         f"{path.parent.name}: published already, with other rollouts"
-        for key, path in ours.items()
+        for key, path in finished.items()
         if key in published and not pd.read_parquet(path).equals(pd.read_parquet(published[key]))
     ]
     if reasons:
         more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
         raise ValueError(f"{results}: {reasons[0]}{more}")
-    added = 0
-    for key, path in sorted(ours.items()):
-        if key in published:
-            continue
-        files = [path, *sorted(path.parent.glob("redeploy_*.parquet"))]
+    new = {key: path for key, path in finished.items() if key not in published}
+    for path in new.values():
+        files = [path, *(path.parent / name for name in sorted(redeployments))]
         _copy_whole(files, path.parent, destination / path.parent.name)
-        added += 1
     missing = len(set(expected) - set(_runs_by_point(destination)))
     if not missing:
         write_pooled_summary(pool(*find_outputs([destination])), destination / "summary")
-    return added, missing
+    return Part(len(new), len(ours) - len(finished), missing)
+
+
+def expected_redeployments(config_files: tuple[str, ...]) -> set[str]:
+    """The redeployment files the workflow makes beside every planning run of a study (its
+    ``robustness`` section: one per start std, one per model error)."""
+    from pih.study.config import load_config
+
+    robustness = load_config(list(config_files))["robustness"]
+    return {f"redeploy_start_std_m~{float(std)}.parquet" for std in robustness["start_std_m"]} | {
+        f"redeploy_model_error~{name}.parquet" for name in robustness.get("model_error") or {}
+    }
 
 
 def _runs_by_point(planning: Path) -> dict[str, Path]:
