@@ -464,7 +464,7 @@ def test_a_study_published_in_parts_gets_the_workflows_tables(smoke_run, tmp_pat
     )
     runs = sorted((smoke_run / "results" / "planning").glob("*/rollouts.parquet"))
     parts = {
-        name: [r.parent for r in runs if (f"start_x_m~{start}_" in r.parent.name)]
+        name: [r.parent for r in runs if f"start_x_m~{start}" in r.parent.name]
         for name, start in (("a", "-0.035"), ("b", "-0.031"))
     }
     for name, dirs in parts.items():
