@@ -183,7 +183,27 @@ def behaviour_dump(source: str) -> str:
     """What a module's source computes, as text: its normalized AST (:class:`_Behaviour`), the
     same for a moved file, a reworded comment or docstring, and another for a changed
     expression."""
-    return ast.dump(_Behaviour().visit(ast.parse(source)), include_attributes=False)
+    return _dump(_Behaviour().visit(ast.parse(source)))
+
+
+def _dump(node: object) -> str:
+    """``ast.dump`` as Python 3.13 writes it (fields that are None or empty left out, no source
+    positions) on every Python: 3.12's writes the empty ones too, which would make the hash
+    depend on the interpreter that computes it."""
+    if isinstance(node, ast.AST):
+        printed = (
+            f"{name}={_dump(value)}"
+            for name in node._fields
+            if (value := getattr(node, name, None)) != []
+            and (
+                value is not None
+                or (name == "value" and isinstance(node, (ast.Constant, ast.MatchSingleton)))
+            )
+        )
+        return f"{type(node).__name__}({', '.join(printed)})"
+    if isinstance(node, list):
+        return f"[{', '.join(map(_dump, node))}]"
+    return repr(node)
 
 
 @functools.cache
