@@ -2,11 +2,14 @@
 data, and what the provenance says about why the data differ."""
 
 import shutil
+from pathlib import Path
 
 import pandas as pd
 
 from pih.__main__ import main
 from pih.study.compare import compare
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def tree(root):
@@ -210,3 +213,27 @@ def test_a_tree_that_is_not_one_is_one_line(tmp_path, capsys):
     assert main(["compare", str(tmp_path), str(tmp_path / "nope")]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "not a results tree" in err[0]
+
+
+def test_a_bigger_old_study_is_read_at_the_new_ones_sweep_points(tmp_path, capsys):
+    """A fresh default run against the paper-scale study, which holds its runs and more: OLD is
+    read at NEW's sweep points, its tables remade from those runs, and reproduces bit for bit
+    (here: the published default's runs at one start against the whole published default)."""
+    from pih.study.planning_summary import write_pooled_summary
+    from pih.study.pooling import find_outputs, pool
+
+    old = ROOT / "published" / "default"
+    new = tmp_path / "new"
+    shutil.copytree(old / "validation", new / "validation")
+    for run in sorted((old / "planning").glob("start_x_m~-0.04_*")):
+        shutil.copytree(run, new / "planning" / run.name)
+    write_pooled_summary(pool(*find_outputs([new / "planning"])), new / "planning" / "summary")
+
+    result = compare(old, new)
+    assert "holds 12 planning runs: read at the 3 sweep points" in result.scope
+    assert result.data_identical and result.items == compare(new, new).items
+    assert result.conclusions_hold
+    # A run lost from NEW (its tables count it): OLD is read whole, the run missing.
+    shutil.rmtree(new / "planning" / "start_x_m~-0.04_goal~sensed_hole_seed~0")
+    lost = compare(old, new)
+    assert lost.scope == "" and not lost.conclusions_hold

@@ -18,6 +18,7 @@ JOB_GRAPH = ("pih.study.config", "pih.study.schema", "pih.workflow.jobs", "pih.r
 """What the Snakefile and workflow/rules/common.smk import to build the job graph."""
 AGGREGATE = (
     "pih.study.aggregate",
+    "pih.study.run_summary",
     "pih.study.pooling",
     "pih.study.summary",
     "pih.study.plots",

@@ -12,13 +12,13 @@ from pih.study.aggregate import (
     ablation_table,
     cost_bands,
     figure_bands,
-    final_success_fraction,
     paired_table,
     robustness_pairs,
     robustness_table,
     success_table,
 )
 from pih.study.config import override, resolve, seed_key, sweep_points, variant_overrides
+from pih.study.run_summary import final_success_fraction
 from pih.study.statistics import sign_test_p, wilson_interval
 
 
@@ -352,7 +352,7 @@ def test_a_command_line_config_file_replaces_the_validation_variants_whole(tmp_p
 
 
 def test_deployments_that_only_repeat_a_training_rollout_are_recognised():
-    from pih.study.aggregate import repeats_training
+    from pih.study.run_summary import repeats_training
 
     def rows(phase, *poses):
         return pd.DataFrame(

@@ -17,6 +17,8 @@ def compare(old: Path, new: Path, rtol: float, r_tolerance: float) -> int:
     except (OSError, ValueError) as error:
         print(f"pih compare: {first_line(error)}", file=sys.stderr)
         return 1
+    if result.scope:
+        print(f"scope: {result.scope}")
     for difference in result.differences:
         print(difference)
     within = "bit-identical" if rtol == 0 else f"within --rtol {rtol:g}"

@@ -10,12 +10,17 @@ levels (docs/reproducibility.md):
   CPU or Drake can be expected to reproduce; the physics is chaotic at the µm level.
 
 When the data differ, the two trees' provenance says what differs between the machines and code
-that made them (:func:`likely_causes`). No Drake, no simulation: it reads Parquet files.
+that made them (:func:`likely_causes`). When OLD holds every planning run NEW does and more (the
+paper-scale study against a fresh default run, its 4-start subset), OLD is read at NEW's sweep
+points only, its planning tables remade from those runs (:func:`runs_at_points`). No Drake, no
+simulation: it reads Parquet files.
 """
 
 from __future__ import annotations
 
 import math
+import shutil
+import tempfile
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,8 +30,8 @@ import pandas as pd
 
 from pih.records.outputs import read_provenance
 from pih.records.provenance import input_sha256
-from pih.study.aggregate import NO_MODEL_ERROR
 from pih.study.published import point_key
+from pih.study.run_summary import NO_MODEL_ERROR
 
 R_TOLERANCE = 0.02
 """How far a validation correlation r may move for the conclusions to hold: the paper's own
@@ -116,6 +121,9 @@ class Comparison:
     items: int
     checks: list[Check]
     causes: list[str]
+    scope: str = ""
+    """How OLD was read when it holds more runs than NEW (:func:`runs_at_points`); empty when
+    whole."""
 
     @property
     def data_identical(self) -> bool:
@@ -189,17 +197,56 @@ def _presence(missing: bool) -> str:
     return "missing" if missing else "present"
 
 
-def run_files(tree: Path) -> dict[str, Path]:
-    """The planning runs' data files of a tree, by their run's sweep point (in today's keys,
-    :func:`pih.study.config.upgraded_point`: directory names changed with 0.4.0) and file name."""
+def run_directories(tree: Path) -> dict[str, Path]:
+    """A tree's planning run directories by their sweep point (:func:`point_key`, in today's
+    keys, :func:`pih.study.config.upgraded_point`: directory names changed with 0.4.0)."""
     from pih.study.config import upgraded_point
 
-    files = {}
-    for rollouts in sorted((tree / "planning").glob("*/rollouts.parquet")):
-        point = point_key(upgraded_point(read_provenance(rollouts)["sweep_point"]))
-        for data in [rollouts, *sorted(rollouts.parent.glob("redeploy_*.parquet"))]:
-            files[f"{point} {data.name}"] = data
-    return files
+    return {
+        point_key(upgraded_point(read_provenance(rollouts)["sweep_point"])): rollouts.parent
+        for rollouts in sorted((tree / "planning").glob("*/rollouts.parquet"))
+    }
+
+
+def run_files(tree: Path) -> dict[str, Path]:
+    """The planning runs' data files of a tree, by their run's sweep point
+    (:func:`run_directories`) and file name."""
+    return {
+        f"{point} {data.name}": data
+        for point, directory in run_directories(tree).items()
+        for data in [directory / "rollouts.parquet", *sorted(directory.glob("redeploy_*.parquet"))]
+    }
+
+
+def pools_its_runs(tree: Path) -> bool:
+    """Whether a tree's own tables pool exactly the planning runs it holds (a whole study, not
+    one with runs lost): its success table counts as many runs as it has run directories."""
+    success = tree / SUCCESS
+    if not success.is_file():
+        return False
+    table = pd.read_parquet(success)
+    return int(table.loc[table["dimension"] == "all", "runs"].sum()) == len(run_directories(tree))
+
+
+def runs_at_points(old: Path, new: Path, scratch: Path) -> Path | None:
+    """When NEW is a whole study (:func:`pools_its_runs`) and OLD holds every planning run NEW
+    does and more: a copy under ``scratch`` of OLD restricted to NEW's sweep points (its other
+    outputs whole), with the planning tables remade from those runs as ``pih aggregate`` makes
+    them; None otherwise."""
+    from pih.study.planning_summary import write_pooled_summary
+    from pih.study.pooling import find_outputs, pool
+
+    before, after = run_directories(old), run_directories(new)
+    if not after or not set(after) < set(before) or not pools_its_runs(new):
+        return None
+    tree = scratch / old.name
+    for entry in old.iterdir():
+        if entry.name != "planning" and entry.is_dir():
+            shutil.copytree(entry, tree / entry.name)
+    for key in after:
+        shutil.copytree(before[key], tree / "planning" / before[key].name)
+    write_pooled_summary(pool(*find_outputs([tree / "planning"])), tree / "planning" / "summary")
+    return tree
 
 
 def _same_data(a: Path, b: Path) -> bool:
@@ -314,8 +361,18 @@ def compare(
     for tree in (old, new):
         if not (tree / "planning").is_dir() and not (tree / "validation").is_dir():
             raise FileNotFoundError(f"{tree}: not a results tree (no planning/ or validation/)")
-    differences, items = headline_differences(old, new, rtol)
-    differences += run_differences(old, new)
-    items += len(set(run_files(old)) | set(run_files(new)))
-    causes = likely_causes(old, new) if differences else []
-    return Comparison(differences, items, conclusion_checks(old, new, r_tolerance), causes)
+    with tempfile.TemporaryDirectory(prefix="pih-compare-") as scratch:
+        subset = runs_at_points(old, new, Path(scratch))
+        scope = ""
+        if subset is not None:
+            scope = (
+                f"{old} holds {len(run_directories(old))} planning runs: read at the "
+                f"{len(run_directories(new))} sweep points {new} has, its tables remade from them"
+            )
+            old = subset
+        differences, items = headline_differences(old, new, rtol)
+        differences += run_differences(old, new)
+        items += len(set(run_files(old)) | set(run_files(new)))
+        causes = likely_causes(old, new) if differences else []
+        checks = conclusion_checks(old, new, r_tolerance)
+    return Comparison(differences, items, checks, causes, scope)

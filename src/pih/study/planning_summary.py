@@ -14,17 +14,16 @@ from pih.records.provenance import record as provenance_record
 from pih.study import plots
 from pih.study.aggregate import (
     BAND_COLUMNS,
-    BEST_COST_COLUMNS,
     PAIRED_COLUMNS,
     SUCCESS_COLUMNS,
     PlanningTables,
     compared_keys,
     figure_bands,
-    level_columns,
     planning_tables,
     robustness_columns,
 )
 from pih.study.pooling import SOURCE_COLUMNS, PooledRuns
+from pih.study.run_summary import BEST_COST_COLUMNS, level_columns
 
 
 def write_planning_summary(

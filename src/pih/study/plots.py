@@ -17,7 +17,8 @@ from pih.planning.run_record import Phase, phase_rows
 from pih.records.outputs import write_with
 from pih.records.provenance import canonical_json, stable
 from pih.scene.config import HoleConfig, hole_outline
-from pih.study.aggregate import best_training_rows, compared_rows, headline_std, on_training_scene
+from pih.study.aggregate import compared_rows, headline_std, on_training_scene
+from pih.study.run_summary import best_training_rows
 
 QUANTITIES = {
     "f_x_n": ("$F_x$ (N)", "Insertion force $F_x$ vs depth (paper Fig. 4)"),

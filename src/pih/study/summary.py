@@ -12,13 +12,8 @@ import numpy as np
 import pandas as pd
 
 from pih.records.outputs import markdown_table
-from pih.study.aggregate import (
-    NO_MODEL_ERROR,
-    compared_rows,
-    headline_std,
-    offset_level,
-    on_training_scene,
-)
+from pih.study.aggregate import compared_rows, headline_std, offset_level, on_training_scene
+from pih.study.run_summary import NO_MODEL_ERROR
 from pih.validation.experiment import PAPER_PEARSON_R, PAPER_RELATIVE_ERROR_PCT
 
 # Paper §4 (conclusions): bilevel, with its outer rule, "100% successful insertion within 50
