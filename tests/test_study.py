@@ -371,3 +371,54 @@ def test_deployments_that_only_repeat_a_training_rollout_are_recognised():
     other = rows("deploy", (0.0, -0.0099, 0.001), (0.0, -0.0099, 0.0010001))
     assert not repeats_training(pd.concat([means, other]))
     assert not repeats_training(means) and not repeats_training(same)
+
+
+def test_each_runs_first_sensing_sits_beside_its_outcome():
+    """The per-run table: the first training iteration's sensed hole relative to the real one,
+    and each run's deployments from the training start and from the headline's offset starts on
+    the training scene (not under a model error); by method, then sensing error."""
+    from pih.study.aggregate import per_run_table
+    from pih.study.run_summary import first_sensing_error
+
+    rollouts = pd.DataFrame(
+        {
+            "phase": ["train", "train", "train", "deploy"],
+            "iteration": [2, 1, 1, 1],
+            "rollout": [0, 1, 0, 0],
+            "sensed_hole_x_m": [0.009, 0.005, 0.003, 0.0],
+            "sensed_hole_y_m": [-0.010, -0.010, -0.006, -0.010],
+        }
+    )
+    assert first_sensing_error(rollouts, (0.0, -0.01)) == pytest.approx(
+        {"first_sensing_dx_m": 0.003, "first_sensing_dy_m": 0.004, "first_sensing_error_m": 0.005}
+    )
+
+    summaries = pd.DataFrame(
+        {
+            "method": ["one_level", "one_level", "bilevel/deepest_explored"],
+            "run": ["a", "b", "c"],
+            "planner.start_x_m": ["-0.04", "-0.03", "-0.04"],
+            "first_sensing_dx_m": [0.004, -0.001, 0.004],
+            "first_sensing_dy_m": [0.0, 0.0, 0.0],
+            "first_sensing_error_m": [0.004, 0.001, 0.004],
+            "goal_iteration": [None, 3, 5],
+            "deploy_success_rate": [0.1, 0.5, 1.0],
+            "start_std_m": [0.0, 0.0, 0.0],
+            "model_error": ["none"] * 3,
+        }
+    )
+    redeployed = pd.DataFrame(
+        {
+            "method": ["one_level", "one_level", "bilevel/deepest_explored", "one_level"],
+            "run": ["a", "b", "c", "a"],
+            "start_std_m": [0.001, 0.001, 0.001, 0.001],
+            "model_error": ["none", "none", "none", "friction_0.3"],
+            "deploy_success_rate": [0.2, 0.6, 0.9, 0.0],
+        }
+    )
+    deployments = pd.concat([summaries, redeployed], ignore_index=True)
+    table = per_run_table(summaries, deployments, ["planner.goal", "planner.start_x_m"])
+    assert list(table["run"]) == ["c", "b", "a"]
+    assert list(table["offset_deploy_success_rate"]) == [0.9, 0.6, 0.2]
+    assert set(table["offset_start_std_m"]) == {0.001}
+    assert list(table.columns[:3]) == ["method", "planner.start_x_m", "run"]

@@ -99,6 +99,12 @@ rule planning_aggregate:
             caption="../report/robustness.rst",
             category="§3 Planning: one-level vs bilevel",
         ),
+        per_run="results/planning/summary/per_run.parquet",
+        per_run_markdown=report(
+            "results/planning/summary/per_run.md",
+            caption="../report/per_run.rst",
+            category="§3 Planning: one-level vs bilevel",
+        ),
         ablation="results/planning/summary/ablation.parquet",
         ablation_markdown=report(
             "results/planning/summary/ablation.md",

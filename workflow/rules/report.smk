@@ -24,6 +24,7 @@ rule summary:
             "planning: methods compared pair by pair": "planning/summary/paired.md",
             "planning: deployed from inexact starts": "planning/summary/robustness.md",
             "planning: ablation": "planning/summary/ablation.md",
+            "planning: each run, where its first sensing landed": "planning/summary/per_run.md",
             "validation: every offset, model and alignment": "validation/comparison.md",
             "validation: every variant (geometry, margin, solver, contact model)": "validation/variants.md",
             "provenance of every data file": "provenance.md",
@@ -60,6 +61,11 @@ REPORT_TABLES = {
         rules.planning_aggregate.output.ablation_markdown,
         "§3 planning: ablation (per compared dimension)",
         "ablation.rst",
+    ),
+    "per_run": (
+        rules.planning_aggregate.output.per_run_markdown,
+        "§3 planning: each run, where its first sensing landed",
+        "per_run.rst",
     ),
     "comparison": (
         rules.validation_compare.output.markdown,

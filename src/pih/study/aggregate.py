@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from pih.study.config import VARIANT_KEY
-from pih.study.run_summary import NO_MODEL_ERROR, level_columns, split_keys
+from pih.study.run_summary import FIRST_SENSING_COLUMNS, NO_MODEL_ERROR, level_columns, split_keys
 from pih.study.statistics import rate_over_runs, sign_test_p
 
 SEED_KEY = "planner.seed"
@@ -169,6 +169,51 @@ def headline_std(robustness: pd.DataFrame) -> float | None:
     """The start std of the headline: the smallest σ > 0 the study redeployed at."""
     stds = sorted(s for s in robustness["start_std_m"].unique() if s > 0)
     return float(stds[0]) if stds else None
+
+
+PER_RUN_COLUMNS: dict[str, tuple[str, str]] = {
+    "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
+    "run": ("", "run directory (sweep point)"),
+    **FIRST_SENSING_COLUMNS,
+    "goal_iteration": (
+        "1",
+        "first iteration whose goal was within tolerance of the true hole (empty: never)",
+    ),
+    "deploy_success_rate": ("1", "fraction of the trials from the training start that inserted"),
+    "offset_start_std_m": ("m", "std of the offset starts below (the headline's; NaN: none)"),
+    "offset_deploy_success_rate": (
+        "1",
+        "fraction of the trials from starts offset by that std that inserted, on the training scene",
+    ),
+}
+
+
+def per_run_columns(sweep_keys: list[str]) -> dict[str, tuple[str, str]]:
+    """Unit specs of :func:`per_run_table`'s columns for a sweep."""
+    method, *rest = PER_RUN_COLUMNS.items()
+    return dict([method, *level_columns(sweep_keys).items(), *rest])
+
+
+def per_run_table(
+    summaries: pd.DataFrame, deployments: pd.DataFrame, sweep_keys: list[str]
+) -> pd.DataFrame:
+    """One row per planning run: where its first sensing landed relative to the real hole,
+    beside its deployment success from the training start and from starts offset by the
+    headline std (the smallest σ > 0 redeployed at, on the training scene); by compared level,
+    method and sensing error."""
+    trained = _with_model_error(deployments)
+    trained = trained[trained["model_error"] == NO_MODEL_ERROR]
+    std = headline_std(trained)
+    offset = trained[trained["start_std_m"] == std].drop_duplicates("run")
+    table = summaries.assign(
+        offset_start_std_m=math.nan if std is None else std,
+        offset_deploy_success_rate=summaries["run"].map(
+            offset.set_index("run")["deploy_success_rate"]
+        ),
+    )
+    order = [*compared_keys(sweep_keys), "method", "first_sensing_error_m", "run"]
+    table = table.sort_values(order, kind="stable").reset_index(drop=True)
+    return table[list(per_run_columns(sweep_keys))]
 
 
 def on_training_scene(robustness: pd.DataFrame) -> pd.DataFrame:
@@ -362,6 +407,7 @@ class PlanningTables:
     paired: pd.DataFrame
     robustness: pd.DataFrame
     robustness_pairs: pd.DataFrame
+    per_run: pd.DataFrame
 
 
 def variant_pairs(summaries: pd.DataFrame, sweep_keys: list[str], reference: str) -> pd.DataFrame:
@@ -421,4 +467,5 @@ def planning_tables(
         paired=pd.concat([p for p in paired if not p.empty] or paired[:1], ignore_index=True),
         robustness=robustness_table(deployments, sweep_keys),
         robustness_pairs=redeployed,
+        per_run=per_run_table(summaries, deployments, sweep_keys),
     )

@@ -19,6 +19,7 @@ from pih.study.aggregate import (
     PlanningTables,
     compared_keys,
     figure_bands,
+    per_run_columns,
     planning_tables,
     robustness_columns,
 )
@@ -34,7 +35,7 @@ def write_planning_summary(
     record: dict[str, Any],
 ) -> None:
     """Every summary file of a study's planning runs under ``directory`` (``runs``,
-    ``cost_bands``, ``success``, ``paired``, ``robustness``, ``ablation``: ``.parquet`` and
+    ``cost_bands``, ``success``, ``paired``, ``robustness``, ``ablation``, ``per_run``: ``.parquet`` and
     ``.md``; ``success.csv``; ``fig9_cost_bands.{png,pdf}``, ``fig_deploy_success.png``), each
     with the provenance ``record``."""
     directory = Path(directory)
@@ -45,6 +46,7 @@ def write_planning_summary(
         "paired": (tables.paired, PAIRED_COLUMNS),
         "robustness": (tables.robustness, robustness_columns(sweep_keys)),
         "ablation": (tables.ablation, SUCCESS_COLUMNS),
+        "per_run": (tables.per_run, per_run_columns(sweep_keys)),
     }
     for name, (frame, columns) in frames.items():
         write_table(frame, directory / f"{name}.parquet", record, columns)
@@ -57,6 +59,7 @@ def write_planning_summary(
         ablation = ablation[:1]
     markdown = {
         "success": markdown_table(tables.success),
+        "per_run": markdown_table(tables.per_run.drop(columns="run")),
         "paired": markdown_table(tables.paired),
         "robustness": robustness,
         "ablation": "\n\n".join(

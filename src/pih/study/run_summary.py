@@ -47,6 +47,30 @@ def run_title(point: Mapping[str, Any], planner: Mapping[str, Any]) -> str:
     return ", ".join([variant(planner), *levels])
 
 
+def first_sensing_error(rollouts: pd.DataFrame, hole_xy_m: tuple[float, float]) -> dict[str, float]:
+    """Where the run's first sensing of the hole (eq. 16b, its first training iteration's) landed
+    relative to the real hole H: x and y offsets and their norm (m). In a simulator that knows
+    only the sensed hole (``sensed_per_run``) this is the hole it trains on."""
+    train = phase_rows(rollouts, Phase.TRAIN)
+    if train.empty:
+        return dict.fromkeys(FIRST_SENSING_COLUMNS, math.nan)
+    first = train.sort_values(["iteration", "rollout"]).iloc[0]
+    dx = float(first["sensed_hole_x_m"] - hole_xy_m[0])
+    dy = float(first["sensed_hole_y_m"] - hole_xy_m[1])
+    return {
+        "first_sensing_dx_m": dx,
+        "first_sensing_dy_m": dy,
+        "first_sensing_error_m": math.hypot(dx, dy),
+    }
+
+
+FIRST_SENSING_COLUMNS: dict[str, tuple[str, str]] = {
+    "first_sensing_dx_m": ("m", "x of the run's first sensed hole minus the real hole's"),
+    "first_sensing_dy_m": ("m", "y of the run's first sensed hole minus the real hole's"),
+    "first_sensing_error_m": ("m", "distance of the run's first sensed hole from the real hole"),
+}
+
+
 def run_summary(
     rollouts: pd.DataFrame, tolerance_m: float, time_step_s: float, deploy_policy: str
 ) -> dict[str, Any]:
@@ -137,6 +161,7 @@ def run_tables(
                     scene.solver.time_step_s,
                     planner.deploy_policy,
                 ),
+                **first_sensing_error(rollouts, (scene.hole.x_m, scene.hole.y_m)),
             }
         )
     return pd.concat(bests, ignore_index=True), pd.DataFrame(summaries)
