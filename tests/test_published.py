@@ -15,9 +15,11 @@ from pih.study.published import (
     README_BEGIN,
     README_END,
     expected_runs,
+    expected_validation,
     point_key,
     results_block,
     stale_reasons,
+    validation_stale_reasons,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -64,6 +66,32 @@ def test_stale_published_runs_are_named(tmp_path):
     ]
 
 
+def test_a_stale_published_validation_is_named(tmp_path):
+    """The published validation tables are checked as the runs are: their config sections, the
+    rollout code (the scene and Whitney's theory) and Drake."""
+    from pih.records.outputs import write_table
+    from pih.records.provenance import record
+
+    sections = {"scene": {"solver": {"time_step_s": 0.0005}}, "validation": {"speed": 0.002}}
+    table = pd.DataFrame({"r_f_x": [0.9]})
+    write_table(
+        table,
+        tmp_path / "validation" / "comparison.parquet",
+        record("validation_compare", config=sections),
+        {"r_f_x": ("1", "r")},
+    )
+    assert validation_stale_reasons(tmp_path, sections) == []
+    slower = {**sections, "validation": {"speed": 0.0002}}
+    assert validation_stale_reasons(tmp_path, slower, drake="1.51.1") == [
+        f"validation/comparison.parquet: made by Drake {importlib.metadata.version('drake')}, "
+        "not 1.51.1",
+        "validation/comparison.parquet: its validation config differs in speed",
+    ]
+    assert validation_stale_reasons(tmp_path, sections, code_sha256="0" * 64) == [
+        "validation/comparison.parquet: made by other rollout code"
+    ]
+
+
 PUBLISHED = [s for s in PUBLISHED_STUDIES.values() if (ROOT / s.directory).is_dir()]
 
 
@@ -71,6 +99,7 @@ PUBLISHED = [s for s in PUBLISHED_STUDIES.values() if (ROOT / s.directory).is_di
 def test_the_published_study_is_what_the_config_and_code_compute(study):
     config_files = tuple(str(ROOT / f) for f in study.config_files)
     reasons = stale_reasons(ROOT / study.directory, expected_runs(config_files))
+    reasons += validation_stale_reasons(ROOT / study.directory, expected_validation(config_files))
     if study.in_parts:  # runs still to come are not stale; every run that is in must be current
         reasons = [r for r in reasons if not r.endswith("is not published")]
     if study.rerun_pending:

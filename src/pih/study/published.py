@@ -121,6 +121,7 @@ def publish(results: Path, study: PublishedStudy, root: Path = Path(".")) -> int
         raise FileNotFoundError(f"{results}: no study outputs to publish")
     config_files = tuple(str(root / f) for f in study.config_files)
     reasons = stale_reasons(results, expected_runs(config_files))
+    reasons += validation_stale_reasons(results, expected_validation(config_files))
     if reasons:
         more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
         raise ValueError(f"{results} is not a run of the {study.title}: {reasons[0]}{more}")
@@ -149,6 +150,48 @@ def stale_reasons(
     ]
     for key in sorted(set(runs) & set(expected)):
         reasons += run_stale_reasons(runs[key], expected[key], published, code_sha256, drake)
+    return reasons
+
+
+VALIDATION_TABLES = ("validation/comparison.parquet", "validation/variants.parquet")
+"""The validation tables README and the selection rule read."""
+
+
+def expected_validation(config_files: tuple[str, ...]) -> dict[str, object]:
+    """What a study's validation tables record as their config: its ``scene`` and
+    ``validation`` sections."""
+    from pih.study.config import load_config
+
+    config = load_config(list(config_files))
+    return {section: config[section] for section in ("scene", "validation")}
+
+
+def validation_stale_reasons(
+    published: Path,
+    sections: Mapping[str, object],
+    code_sha256: str | None = None,
+    drake: str | None = None,
+) -> list[str]:
+    """Why a study's validation tables (:data:`VALIDATION_TABLES`, those it has) are not what the
+    repository computes: made by other rollout code (the scene, contact and Whitney's theory are
+    in it) or another Drake, or for another ``scene`` or ``validation`` config section."""
+    code_sha256 = code_sha256 or rollout_code_hash()
+    drake = drake or importlib.metadata.version("drake")
+    reasons = []
+    for table in VALIDATION_TABLES:
+        if not (published / table).is_file():
+            continue
+        made = read_provenance(published / table)
+        if made.get("rollout_code_sha256") != code_sha256:
+            reasons.append(f"{table}: made by other rollout code")
+        made_by = made.get("packages", {}).get("drake")
+        if made_by != drake:
+            reasons.append(f"{table}: made by Drake {made_by}, not {drake}")
+        for section, now in sections.items():
+            recorded = (made.get("config") or {}).get(section) or {}
+            keys = _differing_keys(recorded, json.loads(canonical_json(now)))
+            if keys:
+                reasons.append(f"{table}: its {section} config differs in {', '.join(keys)}")
     return reasons
 
 
