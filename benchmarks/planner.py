@@ -44,7 +44,7 @@ def one_run(spec: dict) -> None:
     """In a child process: the run, then one JSON line of its figures."""
     scene = from_mapping(SceneConfig, spec["scene"], "scene")
     config = replace(
-        PlannerConfig(),
+        from_mapping(PlannerConfig, spec["planner"], "planner"),
         iterations=spec["iterations"],
         goal=spec["goal"],
         seed=spec["seed"],
@@ -100,7 +100,8 @@ def main() -> int:
         return 0
 
     try:
-        scene = load_config(args.configfile)["scene"]
+        config = load_config(args.configfile)
+        scene = config["scene"]
         candidate = scene_with(scene, scene_settings(args.set), "--set")
         baseline = scene_with(
             scene,
@@ -116,6 +117,7 @@ def main() -> int:
         print(f"benchmarks/planner.py: {error}", file=sys.stderr)
         return 1
     run = {k: getattr(args, k) for k in ("iterations", "goal", "start_x_m", "seed")}
+    run["planner"] = config["planner"]
     allocator = preloaded_allocator()
     seconds = {"baseline": 0.0, "candidate": 0.0}
     for _ in range(args.repeats):
