@@ -233,7 +233,24 @@ def test_a_bigger_old_study_is_read_at_the_new_ones_sweep_points(tmp_path, capsy
     assert "holds 12 planning runs: read at the 3 sweep points" in result.scope
     assert result.data_identical and result.items == compare(new, new).items
     assert result.conclusions_hold
+    # A study in parts holding just NEW's runs, without tables or validation of its own (the
+    # paper-scale study before its last part): its tables are remade, only what it carries is
+    # compared.
+    parts = tmp_path / "parts"
+    for run in sorted((new / "planning").glob("start_x_m~*")):
+        shutil.copytree(run, parts / "planning" / run.name)
+    in_parts = compare(parts, new)
+    assert "holds 3 planning runs: read at the 3 sweep points" in in_parts.scope
+    assert in_parts.data_identical and in_parts.conclusions_hold
     # A run lost from NEW (its tables count it): OLD is read whole, the run missing.
     shutil.rmtree(new / "planning" / "start_x_m~-0.04_goal~sensed_hole_seed~0")
     lost = compare(old, new)
     assert lost.scope == "" and not lost.conclusions_hold
+
+
+def test_nothing_to_check_is_not_reproduced(tmp_path):
+    """Two trees without a table in common give no conclusion to check: not "reproduced"."""
+    for name in ("old", "new"):
+        run_file(tmp_path / name / "planning" / "start~-0.04" / "rollouts.parquet", -0.04)
+    result = compare(tmp_path / "old", tmp_path / "new")
+    assert result.checks == [] and result.data_identical and not result.conclusions_hold

@@ -131,7 +131,8 @@ class Comparison:
 
     @property
     def conclusions_hold(self) -> bool:
-        return all(check.holds for check in self.checks)
+        """Every conclusion of OLD holds on NEW, and there was one to check."""
+        return bool(self.checks) and all(check.holds for check in self.checks)
 
     def differing_items(self) -> int:
         return sum(d.items for d in self.differences)
@@ -167,11 +168,13 @@ def _tables(old: Path, new: Path, table: str, keys: tuple[str, ...], numbers: tu
     )
 
 
-def headline_differences(old: Path, new: Path, rtol: float) -> tuple[list[Difference], int]:
-    """Every headline number (:data:`HEADLINE_TABLES`) that is missing from one tree or differs,
-    and how many numbers the two trees hold between them."""
+def headline_differences(
+    old: Path, new: Path, rtol: float, tables: tuple = HEADLINE_TABLES
+) -> tuple[list[Difference], int]:
+    """Every headline number (of ``tables``, default :data:`HEADLINE_TABLES`) that is missing
+    from one tree or differs, and how many numbers the two trees hold between them."""
     differences, compared = [], 0
-    for table, keys, numbers in HEADLINE_TABLES:
+    for table, keys, numbers in tables:
         before, after = _tables(old, new, table, keys, numbers)
         if before is None or after is None:
             held = len(before or after or {}) * len(numbers)
@@ -230,14 +233,16 @@ def pools_its_runs(tree: Path) -> bool:
 
 def runs_at_points(old: Path, new: Path, scratch: Path) -> Path | None:
     """When NEW is a whole study (:func:`pools_its_runs`) and OLD holds every planning run NEW
-    does and more: a copy under ``scratch`` of OLD restricted to NEW's sweep points (its other
+    does and more, or as many without tables of its own (a study published in parts, not yet
+    complete): a copy under ``scratch`` of OLD restricted to NEW's sweep points (its other
     outputs whole), with the planning tables remade from those runs as ``pih aggregate`` makes
     them; None otherwise."""
     from pih.study.planning_summary import write_pooled_summary
     from pih.study.pooling import find_outputs, pool
 
     before, after = run_directories(old), run_directories(new)
-    if not after or not set(after) < set(before) or not pools_its_runs(new):
+    bigger = set(after) < set(before) or not (old / SUCCESS).is_file()
+    if not after or not set(after) <= set(before) or not bigger or not pools_its_runs(new):
         return None
     tree = scratch / old.name
     for entry in old.iterdir():
@@ -370,7 +375,12 @@ def compare(
                 f"{len(run_directories(new))} sweep points {new} has, its tables remade from them"
             )
             old = subset
-        differences, items = headline_differences(old, new, rtol)
+        # A study read at NEW's points is compared on what it carries (the paper-scale study
+        # publishes planning runs only, not a validation of its own).
+        tables = HEADLINE_TABLES
+        if subset is not None:
+            tables = tuple(t for t in HEADLINE_TABLES if (old / t[0]).is_file())
+        differences, items = headline_differences(old, new, rtol, tables)
         differences += run_differences(old, new)
         items += len(set(run_files(old)) | set(run_files(new)))
         causes = likely_causes(old, new) if differences else []
