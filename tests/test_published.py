@@ -82,9 +82,9 @@ def test_a_stale_published_validation_is_named(tmp_path):
     )
     assert validation_stale_reasons(tmp_path, sections) == []
     slower = {**sections, "validation": {"speed": 0.0002}}
+    drake = importlib.metadata.version("drake")
     assert validation_stale_reasons(tmp_path, slower, drake="1.51.1") == [
-        f"validation/comparison.parquet: made by Drake {importlib.metadata.version('drake')}, "
-        "not 1.51.1",
+        f"validation/comparison.parquet: made by Drake {drake}, not 1.51.1",
         "validation/comparison.parquet: its validation config differs in speed",
     ]
     assert validation_stale_reasons(tmp_path, sections, code_sha256="0" * 64) == [
