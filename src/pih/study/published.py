@@ -182,11 +182,7 @@ def validation_stale_reasons(
         if not (published / table).is_file():
             continue
         made = read_provenance(published / table)
-        if made.get("rollout_code_sha256") != code_sha256:
-            reasons.append(f"{table}: made by other rollout code")
-        made_by = made.get("packages", {}).get("drake")
-        if made_by != drake:
-            reasons.append(f"{table}: made by Drake {made_by}, not {drake}")
+        reasons += _made_elsewhere(made, table, code_sha256, drake)
         for section, now in sections.items():
             recorded = (made.get("config") or {}).get(section) or {}
             keys = _differing_keys(recorded, json.loads(canonical_json(now)))
@@ -209,18 +205,29 @@ def run_stale_reasons(
     drake = drake or importlib.metadata.version("drake")
     reasons = []
     for data in [path, *sorted(path.parent.glob("redeploy_*.parquet"))]:
-        made = read_provenance(data)
-        if made.get("rollout_code_sha256") != code_sha256:
-            reasons.append(f"{data.relative_to(root)}: made by other rollout code")
-        made_by = made.get("packages", {}).get("drake")
-        if made_by != drake:
-            reasons.append(f"{data.relative_to(root)}: made by Drake {made_by}, not {drake}")
+        reasons += _made_elsewhere(
+            read_provenance(data), data.relative_to(root), code_sha256, drake
+        )
     recorded = read_provenance(path)["config"]
     for section in ("scene", "planner"):
         now = json.loads(canonical_json(sections[section]))
         if recorded.get(section) != now:
             keys = ", ".join(_differing_keys(recorded.get(section) or {}, now))
             reasons.append(f"{path.parent.name}: its {section} config differs in {keys}")
+    return reasons
+
+
+def _made_elsewhere(
+    made: Mapping[str, object], name: object, code_sha256: str, drake: str
+) -> list[str]:
+    """Why a file's provenance ``made`` is not this repository's: other rollout code, another
+    Drake."""
+    reasons = []
+    if made.get("rollout_code_sha256") != code_sha256:
+        reasons.append(f"{name}: made by other rollout code")
+    made_by = (made.get("packages") or {}).get("drake")
+    if made_by != drake:
+        reasons.append(f"{name}: made by Drake {made_by}, not {drake}")
     return reasons
 
 
