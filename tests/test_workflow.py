@@ -10,6 +10,7 @@ import importlib.metadata
 import json
 import math
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -406,7 +407,8 @@ def test_a_workflow_script_runs_outside_snakemake_for_debugging(tmp_path):
 
 def test_a_job_depends_on_the_library_modules_its_script_reaches():
     """A library edit re-runs the jobs whose code it reaches: planning runs do not depend on the
-    aggregates, figures or summary, which the aggregate jobs do."""
+    aggregates, figures or summary, which the aggregate jobs do, nor on the validation
+    experiment (an hour of planning is not redone for a validation edit)."""
     from pih.records.provenance import imported_library_modules, script_library_hash
 
     scripts = ROOT / "workflow" / "scripts"
@@ -414,6 +416,7 @@ def test_a_job_depends_on_the_library_modules_its_script_reaches():
     reached = {"planning.planner", "scene.simulation", "planning.dmp", "records.outputs"}
     assert reached | {"planning.__init__", "scene.__init__"} <= set(plan)
     assert not {"study.aggregate", "study.plots", "study.summary", "study.pooling"} & set(plan)
+    assert "validation.experiment" not in plan
     assert {"study.aggregate", "study.plots"} <= set(
         imported_library_modules(scripts / "planning_aggregate.py")
     )
@@ -497,4 +500,6 @@ def test_a_study_published_in_parts_gets_the_workflows_tables(smoke_run, tmp_pat
         .reset_index(drop=True)
         .equals(workflow.sort_values("method").reset_index(drop=True))
     )
-    assert "| one_level |" in results_block(published, study)
+    block = " ".join(results_block(published, study).split())
+    assert "| one_level |" in block
+    assert re.search(r"made at `\w+` on [^,]+, [-\d]+: 6 runs;", block), block

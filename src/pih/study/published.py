@@ -11,6 +11,7 @@ fails then). Whether another run reproduced a published one is :mod:`pih.study.c
 
 from __future__ import annotations
 
+import collections
 import importlib.metadata
 import json
 import shutil
@@ -358,10 +359,14 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
     )
     record = read_provenance(tables / "success.parquet")
     drake = record.get("packages", {}).get("drake", "?")
+    made = (
+        f"Drake {drake}; made at {_sources(runs)}; tables {record['created_utc'][:10]}"
+        if study.in_parts and (runs := _runs_by_point(published / "planning"))
+        else f"code `{record['code_version']}`, Drake {drake}, {record['created_utc'][:10]}"
+    )
     source = (
-        f"The published {study.title} (`{study.directory}/`, code `{record['code_version']}`, "
-        f"Drake {drake}, {record['created_utc'][:10]}); deployment success, 95 % interval over "
-        "runs:"
+        f"The published {study.title} (`{study.directory}/`, {made}); deployment success, 95 % "
+        "interval over runs:"
     )
     source = textwrap.fill(source, 100)
     if study.rerun_pending:
@@ -384,19 +389,26 @@ def _in_progress_block(published: Path, study: PublishedStudy) -> str:
     root = Path(published).parents[1]
     expected = expected_runs(tuple(str(root / f) for f in study.config_files))
     runs = _runs_by_point(published / "planning")
-    made = [read_provenance(path) for path in runs.values()]
-    sources = sorted(
-        {f"`{r['code_version']}` on {r['host']} ({r['created_utc'][:10]})" for r in made}
+    drake = sorted(
+        {read_provenance(p).get("packages", {}).get("drake", "?") for p in runs.values()}
     )
-    drake = sorted({r.get("packages", {}).get("drake", "?") for r in made})
     text = (
         f"The {study.title} (`{study.directory}/`) is published in parts: {len(runs)} of its "
         f"{len(expected)} runs so far"
-        + (f" (Drake {', '.join(drake)}; made at {', '.join(sources)})" if runs else "")
+        + (f" (Drake {', '.join(drake)}; made at {_sources(runs)})" if runs else "")
         + "; its tables come once every run is in."
     )
     begin, end = study.markers
     return "\n\n".join([begin, textwrap.fill(text, 100), end])
+
+
+def _sources(runs: Mapping[str, Path]) -> str:
+    """Where runs were made: each code version, host and date once, with its number of runs."""
+    made = [read_provenance(path) for path in runs.values()]
+    counts = collections.Counter(
+        f"`{r['code_version']}` on {r['host']}, {r['created_utc'][:10]}" for r in made
+    )
+    return "; ".join(f"{source}: {n} runs" for source, n in sorted(counts.items()))
 
 
 def readme_with_results(

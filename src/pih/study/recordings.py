@@ -23,7 +23,7 @@ from pih.records.provenance import canonical_json
 from pih.scene.config import SceneConfig, hole_outline
 from pih.scene.frames import offset_along_axis
 from pih.scene.trace import Trace
-from pih.validation.experiment import error_side
+from pih.whitney.frame import error_side
 
 APPLICATION_ID = "pih"
 SPATIAL_PERIOD_S = 0.02  # spatial entities are logged at 50 Hz; scalar series at every step
@@ -193,7 +193,7 @@ def record_insertion(
         ),
         _time_panel("sim_time"),
     )
-    side = error_side(trace, scene.hole.x_m)
+    side = error_side(trace.q_robot[0, 0], scene.hole.x_m)
     series = {
         "contact_f_x": side * trace.contact_force[:, 0],
         "contact_f_z": trace.contact_force[:, 1],

@@ -24,6 +24,7 @@ from pih.scene.config import SceneConfig
 from pih.scene.trace import RobotTrajectory, Trace
 from pih.validation.config import ValidationConfig
 from pih.whitney import theory as whitney
+from pih.whitney.frame import error_side
 
 if TYPE_CHECKING:
     from pih.scene.simulation import PegInHoleScene
@@ -91,15 +92,10 @@ def run_insertion(scene: PegInHoleScene, offset_m: float, config: ValidationConf
     return scene.rollout(straight_down(scene, offset_m, config))
 
 
-def error_side(trace: Trace, hole_x_m: float) -> float:
-    """+1 or −1: the world x direction of Whitney's +u, toward the side the peg starts on."""
-    return -1.0 if trace.q_robot[0, 0] < hole_x_m else 1.0
-
-
 def to_whitney_frame(trace: Trace, hole_x_m: float) -> pd.DataFrame:
     """Depth ℓ, F_x, F_z and θ of a trace in Whitney's conventions, first pass of each depth only
     (samples where ℓ exceeds every earlier ℓ), so the curve is a function of depth."""
-    side = error_side(trace, hole_x_m)
+    side = error_side(trace.q_robot[0, 0], hole_x_m)
     frame = pd.DataFrame(
         {
             "depth_m": trace.insertion_depth_m,

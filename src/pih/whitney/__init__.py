@@ -1,3 +1,4 @@
 """Whitney's quasi-static insertion theory (§2.3, docs/whitney.md): the benchmark for the
-simulated contact forces. Owns :mod:`pih.whitney.theory` (phases, forces, curves) and
-:mod:`pih.whitney.jamming` (the jamming diagram). Imports nothing of ``pih`` outside it."""
+simulated contact forces. Owns :mod:`pih.whitney.theory` (phases, forces, curves),
+:mod:`pih.whitney.jamming` (the jamming diagram) and :mod:`pih.whitney.frame` (his signs in the
+world). Imports nothing of ``pih`` outside it."""
