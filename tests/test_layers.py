@@ -216,8 +216,6 @@ def test_every_subpackage_says_what_it_owns_and_no_module_is_over_600_lines():
 def test_the_docs_name_only_files_that_exist():
     """README, config/README and docs/ (but docs/history.md, which records the past) point a
     reader at code by path; a module moved or renamed must take its mentions along."""
-    import re
-
     pages = [ROOT / "README.md", ROOT / "config" / "README.md"]
     pages += [p for p in sorted((ROOT / "docs").glob("*.md")) if p.name != "history.md"]
     missing = [

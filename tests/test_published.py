@@ -385,14 +385,14 @@ def test_the_first_iterations_draws_are_bit_identical_on_this_machine(study):
 def test_a_study_in_parts_takes_current_runs_and_refuses_stale_ones(tmp_path, monkeypatch):
     """Each part adds the runs of the study a tree holds (not the others); a run made by another
     Drake is refused in one line, before anything is copied; until the last run is in, the
-    study's block says how far it is."""
+    study's block says how far it is and where its runs were made."""
     from pih.records.outputs import write_table
     from pih.records.provenance import record
     from pih.study.published import Part, PublishedStudy, publish_part
 
     shutil.copytree(ROOT / "config", tmp_path / "config")
     (tmp_path / "config" / "two.yaml").write_text(
-        "sweep:\n  planner.start_x_m: [-0.04, -0.03]\n  planner.goal: [deepest_explored]\n"
+        "sweep:\n  planner.start_x_m: [-0.04, -0.035, -0.03]\n  planner.goal: [deepest_explored]\n"
     )
     study = PublishedStudy(
         "two",
@@ -405,9 +405,11 @@ def test_a_study_in_parts_takes_current_runs_and_refuses_stale_ones(tmp_path, mo
     rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
     units = {"phase": ("", "phase"), "success": ("1", "inserted")}
 
-    def tree(name: str, start: float, drake: str | None = None, finished: bool = True) -> Path:
+    def tree(
+        name: str, start: float, drake: str | None = None, finished: bool = True, **made: str
+    ) -> Path:
         point = {"planner.start_x_m": start, "planner.goal": "deepest_explored"}
-        provenance = record("plan", point=point, config=expected[point_key(point)])
+        provenance = record("plan", point=point, config=expected[point_key(point)]) | made
         provenance["packages"]["drake"] = drake or provenance["packages"]["drake"]
         run = tmp_path / name / "planning" / f"start_x_m~{start}_goal~deepest_explored"
         write_table(rows, run / "rollouts.parquet", provenance, units)
@@ -418,8 +420,8 @@ def test_a_study_in_parts_takes_current_runs_and_refuses_stale_ones(tmp_path, mo
         return tmp_path / name
 
     # A run whose redeployment is not there yet is left out until it is.
-    assert publish_part(tree("early", -0.04, finished=False), study, root=tmp_path) == Part(0, 1, 2)
-    assert publish_part(tree("first", -0.04), study, root=tmp_path) == Part(1, 0, 1)
+    assert publish_part(tree("early", -0.04, finished=False), study, root=tmp_path) == Part(0, 1, 3)
+    assert publish_part(tree("first", -0.04), study, root=tmp_path) == Part(1, 0, 2)
     published = tmp_path / study.directory
     run = published / "planning" / "start_x_m~-0.04_goal~deepest_explored"
     assert sorted(p.name for p in run.iterdir()) == [
@@ -427,14 +429,22 @@ def test_a_study_in_parts_takes_current_runs_and_refuses_stale_ones(tmp_path, mo
         "rollouts.parquet",
     ]
     block = " ".join(results_block(published, study).split())
-    assert "published in parts: 1 of its 2 runs so far" in block
+    assert "published in parts: 1 of its 3 runs so far" in block
+    # A part from another session (code, host, date) joins it, and the block names both.
+    elsewhere = {"code_version": "abc1234", "host": "elsewhere", "created_utc": "2000-01-02T03:04"}
+    assert publish_part(tree("second", -0.035, **elsewhere), study, root=tmp_path) == Part(1, 0, 1)
+    block = " ".join(results_block(published, study).split())
+    assert "2 of its 3 runs so far" in block
+    assert "made at `abc1234` on elsewhere, 2000-01-02 (1 run), `" in block
     with pytest.raises(ValueError, match=r"made by Drake 1\.51\.1, not"):
         publish_part(tree("old", -0.03, drake="1.51.1"), study, root=tmp_path)
-    assert len(list((published / "planning").iterdir())) == 1
+    assert len(list((published / "planning").iterdir())) == 2
     # A part made after an upgrade cannot join runs of the old physics: those are stale now.
     real = importlib.metadata.version
     monkeypatch.setattr(
         importlib.metadata, "version", lambda name: "9.9.9" if name == "drake" else real(name)
     )
-    with pytest.raises(ValueError, match=r"-0\.04_goal~deepest_explored/rollouts.parquet: made by"):
+    with pytest.raises(
+        ValueError, match=r"-0\.035_goal~deepest_explored/rollouts.parquet: made by"
+    ):
         publish_part(tree("next", -0.03, drake="9.9.9"), study, root=tmp_path)

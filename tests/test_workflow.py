@@ -502,4 +502,6 @@ def test_a_study_published_in_parts_gets_the_workflows_tables(smoke_run, tmp_pat
     )
     block = " ".join(results_block(published, study).split())
     assert "| one_level |" in block
-    assert re.search(r"made at `\w+` on [^,]+, [-\d]+: 6 runs;", block), block
+    assert re.search(r"runs made at `[^`]+` on [^,]+, [-\d]+ \(6 runs\); tables at code", block), (
+        block
+    )

@@ -1,8 +1,8 @@
 """A rollout's input and output: the robot trajectory q_R(t) in, the :class:`Trace` out.
 
-Plain data, no Drake: :class:`pih.scene.simulation.PegInHoleScene` makes traces, and the config and output
-layers (``pih.records.outputs``, ``pih.validation.experiment``, ``pih aggregate``) read and write them without
-importing the simulator.
+Plain data, no Drake: :class:`pih.scene.simulation.PegInHoleScene` makes traces, and the
+output and study layers (``pih.records.outputs``, ``pih.validation.experiment``,
+``pih.study.aggregate``) read and write them without importing the simulator.
 """
 
 from __future__ import annotations

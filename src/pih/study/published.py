@@ -359,11 +359,9 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
     )
     record = read_provenance(tables / "success.parquet")
     drake = record.get("packages", {}).get("drake", "?")
-    made = (
-        f"Drake {drake}; made at {_sources(runs)}; tables {record['created_utc'][:10]}"
-        if study.in_parts and (runs := _runs_by_point(published / "planning"))
-        else f"code `{record['code_version']}`, Drake {drake}, {record['created_utc'][:10]}"
-    )
+    made = f"code `{record['code_version']}`, Drake {drake}, {record['created_utc'][:10]}"
+    if study.in_parts:
+        made = f"runs made at {_sources(_runs_by_point(published / 'planning'))}; tables at {made}"
     source = (
         f"The published {study.title} (`{study.directory}/`, {made}); deployment success, 95 % "
         "interval over runs:"
@@ -403,12 +401,13 @@ def _in_progress_block(published: Path, study: PublishedStudy) -> str:
 
 
 def _sources(runs: Mapping[str, Path]) -> str:
-    """Where runs were made: each code version, host and date once, with its number of runs."""
-    made = [read_provenance(path) for path in runs.values()]
+    """Where runs were made: each code version, host and date once, with its number of runs,
+    the earliest first."""
+    made = sorted((read_provenance(path) for path in runs.values()), key=lambda r: r["created_utc"])
     counts = collections.Counter(
         f"`{r['code_version']}` on {r['host']}, {r['created_utc'][:10]}" for r in made
     )
-    return "; ".join(f"{source}: {n} runs" for source, n in sorted(counts.items()))
+    return ", ".join(f"{source} ({n} run{'s' * (n > 1)})" for source, n in counts.items())
 
 
 def readme_with_results(
