@@ -274,6 +274,70 @@ def test_readme_prose_quotes_the_published_numbers():
     assert f"median iteration {ours:g} against {theirs:g}" in prose
 
 
+PAPER = PUBLISHED_STUDIES["paper"]
+
+
+@pytest.mark.skipif(
+    not (ROOT / PAPER.directory / "planning" / "summary").is_dir(),
+    reason="the paper-scale study is not complete here",
+)
+def test_paper_scale_prose_quotes_the_published_numbers():
+    """The sentences under the paper-scale study's table quote its tables and runs: trials that
+    inserted from offset starts per method, each rule's pairs against one-level with the sign
+    test's p, the run the paper's rule lost, and the two rules against each other."""
+    published = ROOT / PAPER.directory
+    summary = published / "planning" / "summary"
+    paired = pd.read_parquet(summary / "paired.parquet")
+    per_run = pd.read_parquet(summary / "per_run.parquet")
+    robustness = pd.read_parquet(summary / "robustness.parquet")
+    prose = " ".join(
+        (ROOT / PAPER.page).read_text().split(PAPER.markers[1])[1].split("\n\n")[1].split()
+    )
+    trials = 10
+    runs = per_run.groupby("method").size()
+    inserted = (per_run.groupby("method")["offset_deploy_success_rate"].sum() * trials).round()
+    ours, theirs, one = "bilevel/deepest_explored", "bilevel/explored_argmin", "one_level"
+    total = int(runs[one]) * trials
+    assert (
+        f"our rule inserted in {inserted[ours]:.0f} of {total} deployment trials, the paper's "
+        f"rule in {inserted[theirs]:.0f} of {total} and one-level in {inserted[one]:.0f} of "
+        f"{total}" in prose
+    )
+    offset = paired[(paired["dimension"] == "start_std_m") & (paired["level"] == "0.001")]
+    pairs = offset.set_index(["method", "versus"])
+    ours_one, theirs_one = pairs.loc[(ours, one)], pairs.loc[(theirs, one)]
+    assert ours_one["better"] == ours_one["pairs"] == runs[ours]
+    assert f"ours at all {runs[ours]} starts (two-sided sign test p = " in prose
+    assert f"p = {ours_one['sign_test_p']:.3g}), the paper's rule at " in prose
+    assert theirs_one["worse"] == 1
+    assert (
+        f"the paper's rule at {theirs_one['better']} of {theirs_one['pairs']} "
+        f"(p = {theirs_one['sign_test_p']:.3g})" in prose
+    )
+    by_start = per_run.pivot(index="planner.start_x_m", columns="method")
+    offset_rate = by_start["offset_deploy_success_rate"]
+    (start,) = offset_rate.index[offset_rate[theirs] < offset_rate[one]]
+    assert (
+        by_start.loc[start, ("deploy_success_rate", theirs)] == offset_rate.loc[start, theirs] == 0
+    )
+    assert f"at −{-1e3 * float(start):g} mm its policy inserted in none of its 20 trials" in prose
+    rate = robustness[
+        (robustness["method"] == theirs)
+        & (robustness["start_std_m"] == 0.001)
+        & (robustness["model_error"] == "none")
+    ].iloc[0]
+    assert (
+        f"its rule reaches {rate['deploy_success_rate']:.2f} "
+        f"({rate['deploy_ci_low']:.2f}–{rate['deploy_ci_high']:.2f})" in prose
+    )
+    rules = pairs.loc[(ours, theirs)]
+    assert rules["worse"] == 0
+    assert (
+        f"differ at {rules['better']} starts, both for ours (p = {rules['sign_test_p']:.3g})"
+        in prose
+    )
+
+
 SIM_TO_REAL = PUBLISHED_STUDIES["sim_to_real"]
 
 
