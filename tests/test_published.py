@@ -274,6 +274,53 @@ def test_readme_prose_quotes_the_published_numbers():
     assert f"median iteration {ours:g} against {theirs:g}" in prose
 
 
+def test_a_run_of_a_study_that_fixed_a_key_joins_one_that_sweeps_it(tmp_path):
+    """A study sweeping the training simulator takes the default study's runs (which fix it) as
+    its ``true_hole`` runs, at the level their config records, and a run of a study that fixed
+    the other level as its ``sensed_per_run`` run, each under its own name."""
+    from pih.records.outputs import write_table
+    from pih.records.provenance import record
+    from pih.study.published import Part, PublishedStudy, publish_part
+
+    shutil.copytree(ROOT / "config", tmp_path / "config")
+    (tmp_path / "config" / "modes.yaml").write_text(
+        "sweep:\n  planner.start_x_m: [-0.04]\n  planner.goal: [deepest_explored]\n"
+        "  planner.simulated_hole: [true_hole, sensed_per_run, sensed_per_iteration]\n"
+    )
+    study = PublishedStudy(
+        "modes",
+        ("config/config.yaml", "config/modes.yaml"),
+        "three-mode study",
+        ("planning/*/*.parquet",),
+        in_parts=True,
+    )
+    expected = expected_runs(tuple(str(tmp_path / f) for f in study.config_files))
+    rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
+    units = {"phase": ("", "phase"), "success": ("1", "inserted")}
+    fixed = {"planner.start_x_m": -0.04, "planner.goal": "deepest_explored"}
+
+    def tree(name: str, mode: str) -> Path:
+        sections = expected[point_key({**fixed, "planner.simulated_hole": mode})]
+        provenance = record("plan", point=fixed, config=sections)  # its study fixed the mode
+        run = tmp_path / name / "planning" / "start_x_m~-0.04_goal~deepest_explored"
+        for data in ("rollouts.parquet", "redeploy_start_std_m~0.001.parquet"):
+            write_table(rows, run / data, provenance, units)
+        return tmp_path / name
+
+    assert publish_part(tree("default", "true_hole"), study, root=tmp_path) == Part(1, 0, 2)
+    block = " ".join(results_block(tmp_path / study.directory, study).split())
+    assert "1 of its 3 runs so far" in block
+    with pytest.raises(ValueError, match="published already, with other rollouts"):
+        rows = pd.DataFrame({"phase": ["deploy"], "success": [False]})
+        publish_part(tree("again", "true_hole"), study, root=tmp_path)
+    rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
+    assert publish_part(tree("sensed", "sensed_per_run"), study, root=tmp_path) == Part(1, 0, 1)
+    assert sorted(p.name for p in (tmp_path / study.directory / "planning").iterdir()) == [
+        "start_x_m~-0.04_goal~deepest_explored_simulated_hole~sensed_per_run",
+        "start_x_m~-0.04_goal~deepest_explored_simulated_hole~true_hole",
+    ]
+
+
 PAPER = PUBLISHED_STUDIES["paper"]
 
 

@@ -17,9 +17,10 @@ import json
 import shutil
 import tempfile
 import textwrap
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -143,7 +144,7 @@ def stale_reasons(
     Drake (default: the installed one) does."""
     code_sha256 = code_sha256 or rollout_code_hash()
     drake = drake or importlib.metadata.version("drake")
-    runs = _runs_by_point(published / "planning")
+    runs = _runs_by_point(published / "planning", _sweep_keys(expected))
     reasons = [f"sweep point {key} is not published" for key in sorted(set(expected) - set(runs))]
     reasons += [
         f"{runs[key].parent.name} is not a sweep point of the config"
@@ -259,8 +260,9 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
     config_files = tuple(str(root / f) for f in study.config_files)
     expected, redeployments = expected_runs(config_files), expected_redeployments(config_files)
     destination = root / study.directory / "planning"
-    published = _runs_by_point(destination)
-    ours = {k: p for k, p in _runs_by_point(results / "planning").items() if k in expected}
+    keys = _sweep_keys(expected)
+    published = _runs_by_point(destination, keys)
+    ours = {k: p for k, p in _runs_by_point(results / "planning", keys).items() if k in expected}
     if not ours:
         raise FileNotFoundError(f"{results}: no run of the {study.title}")
     finished = {
@@ -281,8 +283,12 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
     new = {key: path for key, path in finished.items() if key not in published}
     for path in new.values():
         files = [path, *(path.parent / name for name in sorted(redeployments))]
-        _copy_whole(files, path.parent, destination / path.parent.name)
-    missing = len(set(expected) - set(_runs_by_point(destination)))
+        # A run of a study that fixed a key is named with its level of it too, so that it does
+        # not take the place of this study's run at another level.
+        fixed = _fixed_levels(read_provenance(path), keys)
+        name = path.parent.name + "".join(f"_{k.split('.')[-1]}~{v}" for k, v in fixed.items())
+        _copy_whole(files, path.parent, destination / name)
+    missing = len(set(expected) - set(_runs_by_point(destination, keys)))
     if not missing:
         write_pooled_summary(pool(*find_outputs([destination])), destination / "summary")
     return Part(len(new), len(ours) - len(finished), missing)
@@ -299,12 +305,39 @@ def expected_redeployments(config_files: tuple[str, ...]) -> set[str]:
     }
 
 
-def _runs_by_point(planning: Path) -> dict[str, Path]:
-    """:func:`point_key` of each run under a ``planning`` directory -> its ``rollouts.parquet``."""
-    return {
-        point_key(read_provenance(path)["sweep_point"]): path
-        for path in sorted(planning.glob("*/rollouts.parquet"))
-    }
+def _runs_by_point(planning: Path, keys: Iterable[str] = ()) -> dict[str, Path]:
+    """:func:`point_key` of each run under a ``planning`` directory, in a study that sweeps
+    ``keys``, -> its ``rollouts.parquet``. A key the run's own study fixed takes the level its
+    recorded config sets: the default study's runs, which fix ``planner.simulated_hole``, are the
+    ``true_hole`` runs of a study that sweeps it, draw for draw (the key selects the method, so
+    the draws do not depend on it)."""
+    from pih.study.config import upgraded_point
+
+    runs = {}
+    for path in sorted(planning.glob("*/rollouts.parquet")):
+        record = read_provenance(path)
+        point = upgraded_point(record["sweep_point"]) | _fixed_levels(record, keys)
+        runs[point_key(point)] = path
+    return runs
+
+
+def _fixed_levels(record: Mapping[str, Any], keys: Iterable[str]) -> dict[str, Any]:
+    """The levels of ``keys`` that a run's own study fixed (not in its sweep point), as its
+    recorded config sets them (dotted paths under its config's sections)."""
+    levels = {}
+    for key in sorted(set(keys) - set(record["sweep_point"])):
+        section, *rest = key.split(".")
+        level = (record.get("config") or {}).get(section)
+        for name in rest:
+            level = level.get(name) if isinstance(level, Mapping) else None
+        if rest and level is not None:
+            levels[key] = level
+    return levels
+
+
+def _sweep_keys(expected: Mapping[str, object]) -> set[str]:
+    """The sweep keys of a study's :func:`expected_runs`."""
+    return {key for point in expected for key in json.loads(point)}
 
 
 def _copy_whole(files: list[Path], source: Path, destination: Path) -> None:
