@@ -274,29 +274,42 @@ def test_readme_prose_quotes_the_published_numbers():
     assert f"median iteration {ours:g} against {theirs:g}" in prose
 
 
+UNITS = {"phase": ("", "phase"), "success": ("1", "inserted")}
+"""The columns of the runs the tests of studies in parts write."""
+
+
+def _study_in_parts(tmp_path: Path, name: str, sweep: str) -> tuple:
+    """A study published in parts whose overlay (``config/<name>.yaml`` under ``tmp_path``, with
+    the repository's configs) is ``sweep``, and its expected runs."""
+    from pih.study.published import PublishedStudy
+
+    shutil.copytree(ROOT / "config", tmp_path / "config")
+    (tmp_path / "config" / f"{name}.yaml").write_text(sweep)
+    study = PublishedStudy(
+        name,
+        ("config/config.yaml", f"config/{name}.yaml"),
+        f"{name} study",
+        ("planning/*/*.parquet",),
+        in_parts=True,
+    )
+    return study, expected_runs(tuple(str(tmp_path / f) for f in study.config_files))
+
+
 def test_a_run_of_a_study_that_fixed_a_key_joins_one_that_sweeps_it(tmp_path):
     """A study sweeping the training simulator takes the default study's runs (which fix it) as
     its ``true_hole`` runs, at the level their config records, and a run of a study that fixed
     the other level as its ``sensed_per_run`` run, each under its own name."""
     from pih.records.outputs import write_table
     from pih.records.provenance import record
-    from pih.study.published import Part, PublishedStudy, publish_part
+    from pih.study.published import Part, publish_part
 
-    shutil.copytree(ROOT / "config", tmp_path / "config")
-    (tmp_path / "config" / "modes.yaml").write_text(
-        "sweep:\n  planner.start_x_m: [-0.04]\n  planner.goal: [deepest_explored]\n"
-        "  planner.simulated_hole: [true_hole, sensed_per_run, sensed_per_iteration]\n"
-    )
-    study = PublishedStudy(
+    study, expected = _study_in_parts(
+        tmp_path,
         "modes",
-        ("config/config.yaml", "config/modes.yaml"),
-        "three-mode study",
-        ("planning/*/*.parquet",),
-        in_parts=True,
+        "sweep:\n  planner.start_x_m: [-0.04]\n  planner.goal: [deepest_explored]\n"
+        "  planner.simulated_hole: [true_hole, sensed_per_run, sensed_per_iteration]\n",
     )
-    expected = expected_runs(tuple(str(tmp_path / f) for f in study.config_files))
     rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
-    units = {"phase": ("", "phase"), "success": ("1", "inserted")}
     fixed = {"planner.start_x_m": -0.04, "planner.goal": "deepest_explored"}
 
     def tree(name: str, mode: str) -> Path:
@@ -304,7 +317,7 @@ def test_a_run_of_a_study_that_fixed_a_key_joins_one_that_sweeps_it(tmp_path):
         provenance = record("plan", point=fixed, config=sections)  # its study fixed the mode
         run = tmp_path / name / "planning" / "start_x_m~-0.04_goal~deepest_explored"
         for data in ("rollouts.parquet", "redeploy_start_std_m~0.001.parquet"):
-            write_table(rows, run / data, provenance, units)
+            write_table(rows, run / data, provenance, UNITS)
         return tmp_path / name
 
     assert publish_part(tree("default", "true_hole"), study, root=tmp_path) == Part(1, 0, 2)
@@ -499,22 +512,14 @@ def test_a_study_in_parts_takes_current_runs_and_refuses_stale_ones(tmp_path, mo
     study's block says how far it is and where its runs were made."""
     from pih.records.outputs import write_table
     from pih.records.provenance import record
-    from pih.study.published import Part, PublishedStudy, publish_part
+    from pih.study.published import Part, publish_part
 
-    shutil.copytree(ROOT / "config", tmp_path / "config")
-    (tmp_path / "config" / "two.yaml").write_text(
-        "sweep:\n  planner.start_x_m: [-0.04, -0.035, -0.03]\n  planner.goal: [deepest_explored]\n"
+    study, expected = _study_in_parts(
+        tmp_path,
+        "three",
+        "sweep:\n  planner.start_x_m: [-0.04, -0.035, -0.03]\n  planner.goal: [deepest_explored]\n",
     )
-    study = PublishedStudy(
-        "two",
-        ("config/config.yaml", "config/two.yaml"),
-        "two-run study",
-        ("planning/*/*.parquet",),
-        in_parts=True,
-    )
-    expected = expected_runs(tuple(str(tmp_path / f) for f in study.config_files))
     rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
-    units = {"phase": ("", "phase"), "success": ("1", "inserted")}
 
     def tree(
         name: str, start: float, drake: str | None = None, finished: bool = True, **made: str
@@ -523,11 +528,11 @@ def test_a_study_in_parts_takes_current_runs_and_refuses_stale_ones(tmp_path, mo
         provenance = record("plan", point=point, config=expected[point_key(point)]) | made
         provenance["packages"]["drake"] = drake or provenance["packages"]["drake"]
         run = tmp_path / name / "planning" / f"start_x_m~{start}_goal~deepest_explored"
-        write_table(rows, run / "rollouts.parquet", provenance, units)
+        write_table(rows, run / "rollouts.parquet", provenance, UNITS)
         if finished:
-            write_table(rows, run / "redeploy_start_std_m~0.001.parquet", provenance, units)
+            write_table(rows, run / "redeploy_start_std_m~0.001.parquet", provenance, UNITS)
         stray = tmp_path / name / "planning" / "seed~7" / "rollouts.parquet"  # another study's
-        write_table(rows, stray, record("plan", point={"planner.seed": 7}, config={}), units)
+        write_table(rows, stray, record("plan", point={"planner.seed": 7}, config={}), UNITS)
         return tmp_path / name
 
     # A run whose redeployment is not there yet is left out until it is.
