@@ -125,8 +125,10 @@ def main() -> int:
             figures = timed({**run, "scene": to_mapping(setting)}, allocator)
             seconds[name] += figures["seconds"]
             solver = setting.solver
+            overrides = f" with {' '.join(args.set)}" if name == "candidate" and args.set else ""
             print(
-                f"{name}: {solver.discrete_contact_approximation} {1e3 * solver.time_step_s:g} ms, "
+                f"{name}: {solver.discrete_contact_approximation} {1e3 * solver.time_step_s:g} ms"
+                f"{overrides}, "
                 f"malloc {os.path.basename(allocator) or 'glibc'}: {figures['seconds']:.1f} s for "
                 f"{args.iterations} iterations ({1e3 * figures['seconds'] / figures['rollouts']:.0f}"
                 f" ms per rollout incl. DMP and costs); {figures['inserted']} of "
