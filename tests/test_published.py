@@ -328,6 +328,8 @@ def test_a_run_of_a_study_that_fixed_a_key_joins_one_that_sweeps_it(tmp_path):
         publish_part(tree("again", "true_hole"), study, root=tmp_path)
     rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
     assert publish_part(tree("sensed", "sensed_per_run"), study, root=tmp_path) == Part(1, 0, 1)
+    block = " ".join(results_block(tmp_path / study.directory, study).split())
+    assert "2 of its 3 runs so far" in block
     assert sorted(p.name for p in (tmp_path / study.directory / "planning").iterdir()) == [
         "start_x_m~-0.04_goal~deepest_explored_simulated_hole~sensed_per_run",
         "start_x_m~-0.04_goal~deepest_explored_simulated_hole~true_hole",

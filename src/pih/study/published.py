@@ -394,7 +394,7 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
     drake = record.get("packages", {}).get("drake", "?")
     made = f"code `{record['code_version']}`, Drake {drake}, {record['created_utc'][:10]}"
     if study.in_parts:
-        made = f"runs made at {_sources(_runs_by_point(published / 'planning'))}; tables at {made}"
+        made = f"runs made at {_sources(_published_runs(published, study)[1])}; tables at {made}"
     source = (
         f"The published {study.title} (`{study.directory}/`, {made}); deployment success, 95 % "
         "interval over runs:"
@@ -417,9 +417,7 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
 
 def _in_progress_block(published: Path, study: PublishedStudy) -> str:
     """A study published in parts, before its last run is in: how far it is, and from where."""
-    root = Path(published).parents[1]
-    expected = expected_runs(tuple(str(root / f) for f in study.config_files))
-    runs = _runs_by_point(published / "planning")
+    expected, runs = _published_runs(published, study)
     drake = sorted(
         {read_provenance(p).get("packages", {}).get("drake", "?") for p in runs.values()}
     )
@@ -431,6 +429,16 @@ def _in_progress_block(published: Path, study: PublishedStudy) -> str:
     )
     begin, end = study.markers
     return "\n\n".join([begin, textwrap.fill(text, 100), end])
+
+
+def _published_runs(
+    published: Path, study: PublishedStudy
+) -> tuple[dict[str, dict[str, object]], dict[str, Path]]:
+    """A study's :func:`expected_runs` (its configs in the repository that holds ``published``)
+    and its published runs by their point in it (:func:`_runs_by_point`)."""
+    root = Path(published).parents[1]
+    expected = expected_runs(tuple(str(root / f) for f in study.config_files))
+    return expected, _runs_by_point(published / "planning", _sweep_keys(expected))
 
 
 def _sources(runs: Mapping[str, Path]) -> str:
