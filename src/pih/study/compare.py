@@ -30,7 +30,7 @@ import pandas as pd
 
 from pih.records.outputs import read_provenance
 from pih.records.provenance import input_sha256
-from pih.study.published import point_key
+from pih.study.published import runs_by_point
 from pih.study.run_summary import NO_MODEL_ERROR
 
 R_TOLERANCE = 0.02
@@ -201,14 +201,9 @@ def _presence(missing: bool) -> str:
 
 
 def run_directories(tree: Path) -> dict[str, Path]:
-    """A tree's planning run directories by their sweep point (:func:`point_key`, in today's
-    keys, :func:`pih.study.config.upgraded_point`: directory names changed with 0.4.0)."""
-    from pih.study.config import upgraded_point
-
-    return {
-        point_key(upgraded_point(read_provenance(rollouts)["sweep_point"])): rollouts.parent
-        for rollouts in sorted((tree / "planning").glob("*/rollouts.parquet"))
-    }
+    """A tree's planning run directories by their sweep point (:func:`runs_by_point`, in
+    today's keys: directory names changed with 0.4.0)."""
+    return {key: rollouts.parent for key, rollouts in runs_by_point(tree / "planning").items()}
 
 
 def run_files(tree: Path) -> dict[str, Path]:

@@ -144,7 +144,7 @@ def stale_reasons(
     Drake (default: the installed one) does."""
     code_sha256 = code_sha256 or rollout_code_hash()
     drake = drake or importlib.metadata.version("drake")
-    runs = _runs_by_point(published / "planning", _sweep_keys(expected))
+    runs = runs_by_point(published / "planning", _sweep_keys(expected))
     reasons = [f"sweep point {key} is not published" for key in sorted(set(expected) - set(runs))]
     reasons += [
         f"{runs[key].parent.name} is not a sweep point of the config"
@@ -261,8 +261,8 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
     expected, redeployments = expected_runs(config_files), expected_redeployments(config_files)
     destination = root / study.directory / "planning"
     keys = _sweep_keys(expected)
-    published = _runs_by_point(destination, keys)
-    ours = {k: p for k, p in _runs_by_point(results / "planning", keys).items() if k in expected}
+    published = runs_by_point(destination, keys)
+    ours = {k: p for k, p in runs_by_point(results / "planning", keys).items() if k in expected}
     if not ours:
         raise FileNotFoundError(f"{results}: no run of the {study.title}")
     finished = {
@@ -288,7 +288,7 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
         fixed = _fixed_levels(read_provenance(path), keys)
         name = path.parent.name + "".join(f"_{k.split('.')[-1]}~{v}" for k, v in fixed.items())
         _copy_whole(files, path.parent, destination / name)
-    missing = len(set(expected) - set(_runs_by_point(destination, keys)))
+    missing = len(set(expected) - set(runs_by_point(destination, keys)))
     if not missing:
         write_pooled_summary(pool(*find_outputs([destination])), destination / "summary")
     return Part(len(new), len(ours) - len(finished), missing)
@@ -305,7 +305,7 @@ def expected_redeployments(config_files: tuple[str, ...]) -> set[str]:
     }
 
 
-def _runs_by_point(planning: Path, keys: Iterable[str] = ()) -> dict[str, Path]:
+def runs_by_point(planning: Path, keys: Iterable[str] = ()) -> dict[str, Path]:
     """:func:`point_key` of each run under a ``planning`` directory, in a study that sweeps
     ``keys``, -> its ``rollouts.parquet``. A key the run's own study fixed takes the level its
     recorded config sets: the default study's runs, which fix ``planner.simulated_hole``, are the
@@ -435,10 +435,10 @@ def _published_runs(
     published: Path, study: PublishedStudy
 ) -> tuple[dict[str, dict[str, object]], dict[str, Path]]:
     """A study's :func:`expected_runs` (its configs in the repository that holds ``published``)
-    and its published runs by their point in it (:func:`_runs_by_point`)."""
+    and its published runs by their point in it (:func:`runs_by_point`)."""
     root = Path(published).parents[1]
     expected = expected_runs(tuple(str(root / f) for f in study.config_files))
-    return expected, _runs_by_point(published / "planning", _sweep_keys(expected))
+    return expected, runs_by_point(published / "planning", _sweep_keys(expected))
 
 
 def _sources(runs: Mapping[str, Path]) -> str:
