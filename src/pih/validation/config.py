@@ -22,7 +22,7 @@ class ValidationConfig:
     # insertion then takes 350 s simulated, about 3–4 min of wall time at 0.5 ms.
     speed_m_per_s: float = described(
         0.0002,
-        'the robot\'s descent speed (not in the paper: "moving downward slowly"); Drake\'s '
+        "the robot's descent speed (not in the paper: \"moving downward slowly\"); Drake's "
         "stiction tolerance should scale with it (validation.scene_overrides)",
     )
     start_height_m: float = described(
