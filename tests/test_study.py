@@ -1,6 +1,7 @@
 """Sweep overrides and the aggregates of the study."""
 
 import math
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -349,6 +350,20 @@ def test_a_command_line_config_file_replaces_the_validation_variants_whole(tmp_p
     assert config["validation"]["variants"] == {"b": {"material.margin_m": 0.0}}
     assert config["validation"]["offsets_m"] == [0.001]  # other keys merge as Snakemake does
     assert config["sweep"] == {"planner.seed": [0, 1]}  # a file without a sweep keeps it
+
+
+def test_an_empty_scene_overrides_in_a_config_file_clears_the_defaults():
+    """config/quasi_static.yaml and config/smoke.yaml set ``validation.scene_overrides: {}`` to
+    run the validation scene without the default study's stiction tolerance: merged key by key,
+    an empty mapping would keep it."""
+    from pih.study.config import load_config
+
+    root = Path(__file__).resolve().parents[1]
+    default = load_config([str(root / "config" / "config.yaml")])["validation"]
+    assert default["scene_overrides"] == {"solver.stiction_tolerance_m_per_s": 1.0e-5}
+    for overlay in ("quasi_static.yaml", "smoke.yaml"):
+        files = [str(root / "config" / name) for name in ("config.yaml", overlay)]
+        assert load_config(files)["validation"]["scene_overrides"] == {}, overlay
 
 
 def test_deployments_that_only_repeat_a_training_rollout_are_recognised():

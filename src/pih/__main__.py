@@ -30,9 +30,9 @@
 - ``pih publish [RESULTS] [--study default|sim_to_real|paper]``: copy a finished run of a
   published study (data, tables, figures, provenance; not the recordings) into
   ``published/<study>``, the files README's numbers come from, and regenerate README's results
-  for it; refused when RESULTS is not that study's run at this code. The paper-scale study is
-  published in parts: each call adds the runs RESULTS holds, and its tables are made once all
-  33 are in;
+  for it; refused when RESULTS is not that study's run at this code. The paper-scale and
+  sim-to-real studies are published in parts: each call adds the runs RESULTS holds, and the
+  tables are made once all (33, 48) are in;
 - ``pih status [DIR] [--configfile F ...]``: a study's progress, from the files in its working
   directory ``DIR`` (default ``.``): planning and validation runs done, running (with their
   iteration) and pending, and the time left (:mod:`pih.workflow.status`);

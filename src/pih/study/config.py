@@ -354,18 +354,24 @@ def scene_settings(settings: list[str], option: str = "--set") -> dict[str, Any]
     return overrides
 
 
-OWN_SECTIONS = ("sweep", "variants", "figure_point", "validation.variants")
+OWN_SECTIONS = (
+    "sweep",
+    "variants",
+    "figure_point",
+    "validation.variants",
+    "validation.scene_overrides",
+)
 """Sections (dotted paths) a config file given with --configfile replaces whole instead of
-merging: they define *which* runs exist."""
+merging: they define *which* runs exist, or (``validation.scene_overrides``) one set of changes
+to the scene that an empty mapping must be able to clear."""
 
 
 def read_config_files(
     config: dict[str, Any], default_files: list[str], command_line_files: list[str]
 ) -> None:
     """Check every config file for repeated keys (YAML lets a later key silently replace a whole
-    section) and take the sections that define *which runs* exist (:data:`OWN_SECTIONS`) whole
-    from the last command-line file that has them: Snakemake would merge a user's sweep onto the
-    default's levels key by key."""
+    section) and take :data:`OWN_SECTIONS` whole from the last command-line file that has them:
+    Snakemake would merge a user's sweep onto the default's levels key by key."""
     for path in default_files:
         load_config_file(_relative(path))
     for path in command_line_files:

@@ -1,9 +1,10 @@
 """The published studies: what the repository carries, and whether it is still current.
 
 ``published/<study>/`` is a copy of one complete ``snakemake -j2`` run of a study
-(:data:`PUBLISHED_STUDIES`: the default ``config/config.yaml``, and the sim-to-real study) at
-one commit (:func:`publish` copies it from ``results/``: data, tables, figures, provenance; not
-the recordings), and README's results for it are generated from its tables. The workflow never
+(:data:`PUBLISHED_STUDIES`: the default ``config/config.yaml``) at one commit (:func:`publish`
+copies it from ``results/``: data, tables, figures, provenance; not the recordings), or of the
+runs of a study published in parts (the paper-scale and sim-to-real studies,
+:func:`publish_part`), and README's results for it are generated from its tables. The workflow never
 reads it: a fresh clone recomputes everything. :func:`stale_reasons` says why it no longer
 matches the config, the rollout code or the Drake that computes it (tests/test_published.py
 fails then). Whether another run reproduced a published one is :mod:`pih.study.compare`'s.
@@ -83,8 +84,8 @@ PUBLISHED_STUDIES = {
             ("planning/*/rollouts.parquet", "planning/*/redeploy_*.parquet"),
             in_parts=True,
         ),
-        # Its validation is the default's; the default's 12 runs are its seed-0 runs on the real
-        # hole, draw for draw.
+        # Planning runs only; the default's 12 runs are its seed-0 runs on the real hole, draw for
+        # draw.
         PublishedStudy(
             "sim_to_real",
             ("config/config.yaml", "config/sim_to_real.yaml"),

@@ -18,8 +18,8 @@ class ValidationConfig:
 
     # Whitney's theory is quasi-static: at 2 mm/s the wedged peg sticks and slips at the 2 mm
     # offset (r(F_x) 0.789), at 0.2 mm/s it does not (0.992), with the stiction tolerance scaled
-    # down with the speed (the study's validation.scene_overrides; docs/validation.md). A 45 mm
-    # insertion then takes 350 s simulated, about 3–4 min of wall time at 0.5 ms.
+    # down with the speed (the study's validation.scene_overrides; docs/validation.md). The 70 mm
+    # descent (robot_depth_m) then takes 350 s simulated, about 3–4 min of wall time at 0.5 ms.
     speed_m_per_s: float = described(
         0.0002,
         "the robot's descent speed (not in the paper: \"moving downward slowly\"); Drake's "
