@@ -270,6 +270,20 @@ def test_readme_prose_quotes_the_published_numbers():
     assert f"median iteration {ours:g} against {theirs:g}" in prose
 
 
+def test_readme_quotes_the_published_validation():
+    """README's validation sentence quotes the chosen scene's pooled r and its largest Table 2
+    error from the published variants table (the paper's alignment)."""
+    variants = pd.read_parquet(ROOT / PUBLISHED_DIR / "validation" / "variants.parquet")
+    chosen = variants[variants["chosen"].astype(bool)]
+    assert len(chosen) == 1 and chosen["alignment"].iloc[0] == "chamfer_start"
+    row = chosen.iloc[0]
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    assert (
+        f"pooled r(F_x) {row['r_f_x']:.4f} and r(F_z) {row['r_f_z']:.4f} (the paper: 0.9954 and "
+        f"0.9032), every Table 2 value within {row['max_rel_err_pct']:.1f} %" in readme
+    )
+
+
 UNITS = {"phase": ("", "phase"), "success": ("1", "inserted")}
 """The columns of the runs the tests of studies in parts write."""
 
