@@ -4,8 +4,8 @@
 (:data:`PUBLISHED_STUDIES`: the default ``config/config.yaml``) at one commit (:func:`publish`
 copies it from ``results/``: data, tables, figures, provenance; not the recordings), or of the
 runs of a study published in parts (the paper-scale and sim-to-real studies,
-:func:`publish_part`), and README's results for it are generated from its tables. The workflow never
-reads it: a fresh clone recomputes everything. :func:`stale_reasons` says why it no longer
+:func:`publish_part`), and README's results for it are generated from its tables. The workflow
+never reads it: a fresh clone recomputes everything. :func:`stale_reasons` says why it no longer
 matches the config, the rollout code or the Drake that computes it (tests/test_published.py
 fails then). Whether another run reproduced a published one is :mod:`pih.study.compare`'s.
 """
@@ -56,13 +56,10 @@ class PublishedStudy:
         return f"<!-- PUBLISHED-RESULTS{tail} -->", f"<!-- /PUBLISHED-RESULTS{tail} -->"
 
 
-PLANNING_GLOBS = (
-    "summary.md",
-    "provenance.md",
-    "planning/*/rollouts.parquet",
-    "planning/*/redeploy_*.parquet",
-    "planning/summary/*",
-)
+RUN_GLOBS = ("planning/*/rollouts.parquet", "planning/*/redeploy_*.parquet")
+"""Every planning run's record and its redeployments: what a study published in parts holds."""
+
+PLANNING_GLOBS = ("summary.md", "provenance.md", *RUN_GLOBS, "planning/summary/*")
 """Every rollout's record (≈ 0.3 MB a run), the planning tables, figures and provenance. Not
 the per-step traces (best paths, validation runs: tens of MB a run at 0.5 ms), the recordings or
 the report, which the workflow remakes."""
@@ -81,7 +78,7 @@ PUBLISHED_STUDIES = {
             "paper",
             ("config/config.yaml", "config/paper.yaml"),
             "paper-scale study",
-            ("planning/*/rollouts.parquet", "planning/*/redeploy_*.parquet"),
+            RUN_GLOBS,
             in_parts=True,
         ),
         # Planning runs only; the default's 12 runs are its seed-0 runs on the real hole, draw for
@@ -90,7 +87,7 @@ PUBLISHED_STUDIES = {
             "sim_to_real",
             ("config/config.yaml", "config/sim_to_real.yaml"),
             "sim-to-real study",
-            ("planning/*/rollouts.parquet", "planning/*/redeploy_*.parquet"),
+            RUN_GLOBS,
             page="docs/sim_to_real.md",
             in_parts=True,
         ),
