@@ -425,6 +425,37 @@ def test_a_job_depends_on_the_library_modules_its_script_reaches():
     assert len(hashes) == 2
 
 
+def test_a_reworded_comment_or_docstring_re_runs_no_job(tmp_path, monkeypatch):
+    """A job's library hash is over what its modules compute: rewording a comment or docstring
+    in a module the planning runs reach (the validation section's config, through the study's)
+    leaves the hash as it was, and changing a default value does not."""
+    from pih.records import provenance
+
+    library = tmp_path / "pih"
+    shutil.copytree(provenance.LIBRARY_ROOT, library, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(provenance, "LIBRARY_ROOT", library)
+    plan = ROOT / "workflow" / "scripts" / "plan.py"
+    module = library / "validation" / "config.py"
+    assert "validation.config" in provenance.imported_library_modules(plan)
+
+    def plan_hash() -> str:
+        provenance.script_library_hash.cache_clear()
+        return provenance.script_library_hash(plan)
+
+    before = plan_hash()
+    source = module.read_text()
+    module.write_text(
+        source.replace(
+            "# Whitney's theory is quasi-static", "# Whitney's theory: quasi-static"
+        ).replace('"""The straight-down insertion', '"""The insertion straight down')
+    )
+    assert module.read_text() != source
+    assert plan_hash() == before
+    module.write_text(source.replace("0.0002,", "0.0003,"))
+    assert plan_hash() != before
+    provenance.script_library_hash.cache_clear()
+
+
 @pytest.mark.slow
 def test_pih_aggregate_reproduces_the_workflows_tables(smoke_run, tmp_path):
     """`pih aggregate results` pools the study's own runs and redeployments into the same

@@ -121,12 +121,14 @@ def script_library_hash(script: str | Path) -> str:
     """sha256 over the ``pih`` modules a workflow script depends on
     (:func:`imported_library_modules`, the package's ``__init__`` and data files): a job's
     library, so that a library edit re-runs the jobs whose code it reaches and no others
-    (Snakemake tracks the script itself, not what it imports)."""
+    (Snakemake tracks the script itself, not what it imports). A module counts by what it
+    computes (:func:`behaviour_dump`): a reworded comment or docstring re-runs nothing."""
     names = ["__init__", *imported_library_modules(script)]
-    files = [module_path(name) for name in names]
-    files += sorted(LIBRARY_ROOT.rglob("*.json"))
     digest = hashlib.sha256()
-    for path in files:
+    for name in names:
+        digest.update(name.encode())
+        digest.update(behaviour_dump(module_path(name).read_text()).encode())
+    for path in sorted(LIBRARY_ROOT.rglob("*.json")):
         digest.update(str(path.relative_to(LIBRARY_ROOT)).encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()
