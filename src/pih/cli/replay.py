@@ -25,7 +25,7 @@ def replay(run: Path, query: str, output: Path | None, settings: list[str]) -> i
         rollouts, config = recorded.rollouts, recorded.record["config"]
         rows = select_rows(rollouts, query)
         overrides = scene_settings(settings)
-        scene = scene_with(to_mapping(recorded.scene), overrides, "--set")
+        scene = scene_with(to_mapping(recorded.scene), overrides, "--set scene")
     except Exception as error:  # noqa: BLE001 - a bad run, query or setting: one clear line
         print(f"pih replay {run}: {first_line(error)}", file=sys.stderr)
         return 1

@@ -326,13 +326,10 @@ def robustness_section(config: Mapping[str, Any]) -> RobustnessSection:
 
 def scene_with(scene: Mapping[str, Any], overrides: Mapping[str, Any], key: str) -> SceneConfig:
     """The scene with dotted-path ``overrides`` (``"solver.time_step_s"``) applied, validated;
-    an error names ``key``, the config entry the overrides came from."""
-    try:
-        data = {"scene": copy.deepcopy(dict(scene))}
-        set_paths(data, {f"scene.{path}": v for path, v in overrides.items()}, "")
-        return from_mapping(SceneConfig, data["scene"], "scene")
-    except ConfigError as error:
-        raise ConfigError(f"{key}: {error}") from None
+    an error names the path under ``key``, the config entry the overrides came from."""
+    data = copy.deepcopy(dict(scene))
+    set_paths(data, overrides, f"{key}.")
+    return from_mapping(SceneConfig, data, key)
 
 
 def scene_settings(settings: list[str], option: str = "--set") -> dict[str, Any]:
