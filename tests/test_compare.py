@@ -248,6 +248,33 @@ def test_a_bigger_old_study_is_read_at_the_new_ones_sweep_points(tmp_path, capsy
     assert lost.scope == "" and not lost.conclusions_hold
 
 
+def test_a_default_run_meets_its_copy_in_a_study_that_sweeps_a_key_it_fixes(tmp_path):
+    """The sim-to-real study sweeps planner.simulated_hole, which the default study fixes at
+    true_hole: a default run is matched to the study's true_hole run at its point, by the
+    level its recorded config sets, and not to the sensed_per_run run."""
+    from pih.records.outputs import write_table
+    from pih.records.provenance import record
+
+    point = {"planner.start_x_m": -0.04, "planner.goal": "deepest_explored", "planner.seed": 1}
+    rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
+    units = {c: ("1", c) for c in rows.columns}
+    for tree, simulated_hole, name in (
+        ("old", "true_hole", "true"),
+        ("old", "sensed_per_run", "sensed"),
+        ("new", None, "default"),
+    ):
+        path = tmp_path / tree / "planning" / name / "rollouts.parquet"
+        path.parent.mkdir(parents=True)
+        swept = point | ({"planner.simulated_hole": simulated_hole} if simulated_hole else {})
+        config = {"planner": {"simulated_hole": simulated_hole or "true_hole"}}
+        write_table(rows, path, record("plan", point=swept, config=config), units)
+
+    result = compare(tmp_path / "old", tmp_path / "new")
+    assert [str(d) for d in result.differences] == [
+        "planning/sensed/rollouts.parquet: run file: present -> missing"
+    ]
+
+
 def test_nothing_to_check_is_not_reproduced(tmp_path):
     """Two trees without a table in common give no conclusion to check: not "reproduced"."""
     for name in ("old", "new"):

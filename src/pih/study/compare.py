@@ -12,8 +12,9 @@ levels (docs/reproducibility.md):
 When the data differ, the two trees' provenance says what differs between the machines and code
 that made them (:func:`likely_causes`). When OLD holds every planning run NEW does and more (the
 paper-scale study against a fresh default run, its 4-start subset), OLD is read at NEW's sweep
-points only, its planning tables remade from those runs (:func:`runs_at_points`). No Drake, no
-simulation: it reads Parquet files.
+points only, its planning tables remade from those runs (:func:`runs_at_points`); runs are
+matched over both trees' sweep keys (:func:`run_directories`). No Drake, no simulation: it reads
+Parquet files.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from __future__ import annotations
 import math
 import shutil
 import tempfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -200,18 +201,33 @@ def _presence(missing: bool) -> str:
     return "missing" if missing else "present"
 
 
-def run_directories(tree: Path) -> dict[str, Path]:
-    """A tree's planning run directories by their sweep point (:func:`runs_by_point`, in
-    today's keys: directory names changed with 0.4.0)."""
-    return {key: rollouts.parent for key, rollouts in runs_by_point(tree / "planning").items()}
+def swept_keys(tree: Path) -> set[str]:
+    """The sweep keys of a tree's planning runs (their recorded sweep points, in today's keys)."""
+    from pih.study.config import upgraded_point
+
+    return {
+        key
+        for path in (tree / "planning").glob("*/rollouts.parquet")
+        for key in upgraded_point(read_provenance(path)["sweep_point"])
+    }
 
 
-def run_files(tree: Path) -> dict[str, Path]:
+def run_directories(tree: Path, keys: Iterable[str] = ()) -> dict[str, Path]:
+    """A tree's planning run directories by their sweep point over ``keys`` too
+    (:func:`runs_by_point`, in today's keys: directory names changed with 0.4.0), so that a
+    default run, which fixes ``planner.simulated_hole``, meets its copy in a study that sweeps
+    it."""
+    return {
+        key: rollouts.parent for key, rollouts in runs_by_point(tree / "planning", keys).items()
+    }
+
+
+def run_files(tree: Path, keys: Iterable[str] = ()) -> dict[str, Path]:
     """The planning runs' data files of a tree, by their run's sweep point
     (:func:`run_directories`) and file name."""
     return {
         f"{point} {data.name}": data
-        for point, directory in run_directories(tree).items()
+        for point, directory in run_directories(tree, keys).items()
         for data in [directory / "rollouts.parquet", *sorted(directory.glob("redeploy_*.parquet"))]
     }
 
@@ -226,7 +242,7 @@ def pools_its_runs(tree: Path) -> bool:
     return int(table.loc[table["dimension"] == "all", "runs"].sum()) == len(run_directories(tree))
 
 
-def runs_at_points(old: Path, new: Path, scratch: Path) -> Path | None:
+def runs_at_points(old: Path, new: Path, scratch: Path, keys: Iterable[str] = ()) -> Path | None:
     """When NEW is a whole study (:func:`pools_its_runs`) and OLD holds every planning run NEW
     does and more, or as many without tables of its own (a study published in parts, not yet
     complete): a copy under ``scratch`` of OLD restricted to NEW's sweep points (its other
@@ -235,7 +251,7 @@ def runs_at_points(old: Path, new: Path, scratch: Path) -> Path | None:
     from pih.study.planning_summary import write_pooled_summary
     from pih.study.pooling import find_outputs, pool
 
-    before, after = run_directories(old), run_directories(new)
+    before, after = run_directories(old, keys), run_directories(new, keys)
     bigger = set(after) < set(before) or not (old / SUCCESS).is_file()
     if not after or not set(after) <= set(before) or not bigger or not pools_its_runs(new):
         return None
@@ -259,10 +275,11 @@ def _same_data(a: Path, b: Path) -> bool:
     return len(before) == len(after) and before[shared].equals(after[shared])
 
 
-def run_differences(old: Path, new: Path) -> Iterator[Difference]:
+def run_differences(old: Path, new: Path, keys: Iterable[str] = ()) -> Iterator[Difference]:
     """Every planning run file whose data (the table, not its provenance) differs or is missing,
-    named by its path in the tree that has it (the new one when both do)."""
-    before, after = run_files(old), run_files(new)
+    named by its path in the tree that has it (the new one when both do); runs are matched by
+    their sweep point over ``keys`` too (:func:`run_directories`)."""
+    before, after = run_files(old, keys), run_files(new, keys)
     for name in sorted(set(before) | set(after)):
         where = after.get(name, before.get(name))
         tree = new if name in after else old
@@ -362,7 +379,8 @@ def compare(
         if not (tree / "planning").is_dir() and not (tree / "validation").is_dir():
             raise FileNotFoundError(f"{tree}: not a results tree (no planning/ or validation/)")
     with tempfile.TemporaryDirectory(prefix="pih-compare-") as scratch:
-        subset = runs_at_points(old, new, Path(scratch))
+        keys = swept_keys(old) | swept_keys(new)
+        subset = runs_at_points(old, new, Path(scratch), keys)
         scope = ""
         if subset is not None:
             scope = (
@@ -376,8 +394,8 @@ def compare(
         if subset is not None:
             tables = tuple(t for t in HEADLINE_TABLES if (old / t[0]).is_file())
         differences, items = headline_differences(old, new, rtol, tables)
-        differences += run_differences(old, new)
-        items += len(set(run_files(old)) | set(run_files(new)))
+        differences += run_differences(old, new, keys)
+        items += len(set(run_files(old, keys)) | set(run_files(new, keys)))
         causes = likely_causes(old, new) if differences else []
         checks = conclusion_checks(old, new, r_tolerance)
     return Comparison(differences, items, checks, causes, scope)
