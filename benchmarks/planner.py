@@ -102,7 +102,7 @@ def main() -> int:
     try:
         config = load_config(args.configfile)
         scene = config["scene"]
-        candidate = scene_with(scene, scene_settings(args.set), "--set")
+        candidate = scene_with(scene, scene_settings(args.set), "--set scene")
         baseline = scene_with(
             scene,
             {

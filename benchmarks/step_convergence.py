@@ -293,7 +293,7 @@ def read_reference(part: str) -> tuple[pd.DataFrame, PlannerConfig]:
 
 def overridden(scene: SceneConfig, settings: list[str]) -> SceneConfig:
     """The scene with ``--set scene.KEY=VALUE`` overrides (the retry step follows the step)."""
-    return scene_with(to_mapping(scene), scene_settings(settings), "--set")
+    return scene_with(to_mapping(scene), scene_settings(settings), "--set scene")
 
 
 def per_method(rows: pd.DataFrame, flips: np.ndarray, inserted: dict[str, np.ndarray]) -> None:

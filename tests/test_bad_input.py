@@ -227,7 +227,9 @@ def test_a_scene_error_is_named_as_the_scene_not_the_validation_overrides():
     # An error the overrides make is still theirs.
     config = smoke()
     config["validation"]["scene_overrides"] = {"material.friction": -0.1}
-    with pytest.raises(ConfigError, match=r"^validation\.scene_overrides\.material\.friction: -0"):
+    with pytest.raises(
+        ConfigError, match=r"^validation\.scene_overrides: scene\.material\.friction: -0"
+    ):
         check_study(config, study_points(config))
 
 
@@ -245,8 +247,9 @@ def test_a_scene_error_is_named_as_the_scene_not_the_validation_overrides():
     ],
 )
 def test_a_bad_scene_override_is_named_by_the_path_the_user_wrote(overrides, message):
-    """The overrides' keys are paths under scene (no ``scene.`` the user did not write); a
-    section given as a nested mapping is told to be dotted paths."""
+    """A path that is no scene key is named as the user wrote it, under the overrides (no
+    ``scene.`` the user did not write); a section given as a nested mapping is told to be dotted
+    paths."""
     config = smoke()
     config["validation"]["scene_overrides"] = overrides
     with pytest.raises(ConfigError, match=message):

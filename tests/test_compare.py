@@ -7,7 +7,7 @@ from pathlib import Path
 import pandas as pd
 
 from pih.__main__ import main
-from pih.study.compare import compare
+from pih.study.compare import compare, run_directories
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -272,6 +272,14 @@ def test_a_default_run_meets_its_copy_in_a_study_that_sweeps_a_key_it_fixes(tmp_
     result = compare(tmp_path / "old", tmp_path / "new")
     assert [str(d) for d in result.differences] == [
         "planning/sensed/rollouts.parquet: run file: present -> missing"
+    ]
+    # A tree holding both (the default study, then the sim-to-real study, in one results/) keeps
+    # the two runs apart: each at its own point.
+    shutil.copytree(tmp_path / "old" / "planning" / "true", tmp_path / "new" / "planning" / "true")
+    keys = {"planner.simulated_hole"}
+    assert sorted(p.name for p in run_directories(tmp_path / "new", keys).values()) == [
+        "default",
+        "true",
     ]
 
 

@@ -325,11 +325,14 @@ def robustness_section(config: Mapping[str, Any]) -> RobustnessSection:
 
 
 def scene_with(scene: Mapping[str, Any], overrides: Mapping[str, Any], key: str) -> SceneConfig:
-    """The scene with dotted-path ``overrides`` (``"solver.time_step_s"``) applied, validated;
-    an error names the path under ``key``, the config entry the overrides came from."""
+    """The scene with dotted-path ``overrides`` (``"solver.time_step_s"``) applied, validated.
+    ``key`` is the config entry the overrides came from: a path that is no scene key is named
+    under it as written (``key.solver.x``), a value the resulting scene rejects as the scene's
+    (``key: scene.solver.retry_time_step_s``), since a check across fields may name a key the
+    overrides did not set."""
     data = copy.deepcopy(dict(scene))
     set_paths(data, overrides, f"{key}.")
-    return from_mapping(SceneConfig, data, key)
+    return from_mapping(SceneConfig, data, f"{key}: scene")
 
 
 def scene_settings(settings: list[str], option: str = "--set") -> dict[str, Any]:

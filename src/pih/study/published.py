@@ -303,15 +303,18 @@ def runs_by_point(planning: Path, keys: Iterable[str] = ()) -> dict[str, Path]:
     ``keys``, -> its ``rollouts.parquet``. A key the run's own study fixed takes the level its
     recorded config sets: the default study's runs, which fix ``planner.simulated_hole``, are the
     ``true_hole`` runs of a study that sweeps it, draw for draw (the key selects the method, so
-    the draws do not depend on it)."""
+    the draws do not depend on it). Where that would give two runs of one tree the same point
+    (a default run beside the same run made by a study that sweeps the key), each keeps its
+    own."""
     from pih.study.config import upgraded_point
 
-    runs = {}
+    points = []
     for path in sorted(planning.glob("*/rollouts.parquet")):
         record = read_provenance(path)
-        point = upgraded_point(record["sweep_point"]) | _fixed_levels(record, keys)
-        runs[point_key(point)] = path
-    return runs
+        own = upgraded_point(record["sweep_point"])
+        points.append((point_key(own), point_key(own | _fixed_levels(record, keys)), path))
+    filled = collections.Counter(key for _, key, _ in points)
+    return {key if filled[key] == 1 else own: path for own, key, path in points}
 
 
 def _fixed_levels(record: Mapping[str, Any], keys: Iterable[str]) -> dict[str, Any]:
