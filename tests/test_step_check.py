@@ -50,8 +50,9 @@ def test_the_step_convergence_set_draws_from_the_published_runs(step_convergence
 
 @pytest.mark.skipif(not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study here")
 def test_the_step_check_replays_the_deployment_trials_a_study_reports(step_convergence):
-    """``--deployments``: every run's deployment trials, from the training start and from each
-    redeployment's offset starts, as the study's tables count them."""
+    """The deployments part of the check (``--make-reference deployments``): every run's
+    deployment trials, from the training start and from each redeployment's offset starts, as
+    the study's tables count them."""
     runs = sorted((ROOT / PUBLISHED_DIR / "planning").glob("*/rollouts.parquet"))
     trials, planner = step_convergence.deployment_trials(runs)
     assert planner == RecordedRun.read(runs[0]).planner

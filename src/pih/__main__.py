@@ -195,7 +195,7 @@ def main(argv: list[str] | None = None) -> int:
     watch.add_argument("--jobs", type=int, help="jobs in parallel (default: as many as run, ≥ 2)")
     job = commands.add_parser("job", help="run the workflow script that makes TARGET, here")
     job.add_argument(
-        "target", help="an output path, e.g. results/validation/point/offset_m~0.001.parquet"
+        "target", help="an output path, e.g. results/validation/point_1e7/offset_m~0.001.parquet"
     )
     job.add_argument("--configfile", nargs="+", help="config files (default config/config.yaml)")
     args = parser.parse_args(argv)

@@ -210,10 +210,10 @@ def json_schema(tp: Any) -> dict[str, Any]:
 
 
 def _summary(cls: type) -> str:
-    """The first line of a config dataclass's docstring, else its name."""
+    """The first paragraph of a config dataclass's docstring, on one line, else its name."""
     doc = (cls.__doc__ or "").strip()
     generated = doc.startswith(f"{cls.__name__}(")  # dataclass's own signature docstring
-    return cls.__name__ if generated or not doc else doc.splitlines()[0]
+    return cls.__name__ if generated or not doc else " ".join(doc.split("\n\n")[0].split())
 
 
 def markdown_tables(cls: type, key: str, level: int = 2) -> str:
