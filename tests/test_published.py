@@ -410,6 +410,75 @@ def test_paper_scale_prose_quotes_the_published_numbers():
     )
 
 
+SIM_TO_REAL = PUBLISHED_STUDIES["sim_to_real"]
+
+
+@pytest.mark.skipif(
+    not (ROOT / SIM_TO_REAL.directory / "planning" / "summary").is_dir(),
+    reason="the sim-to-real study's tables come once every run is in",
+)
+def test_sim_to_real_prose_quotes_the_published_numbers():
+    """The sentences under the sim-to-real study's tables quote them: per simulator, the trials
+    each method inserted from offset starts and each rule's pairs against one-level with the
+    sign test's p; on the sensed hole, the first sensing's distance from the real hole that
+    separates the points where both rules inserted from those where neither did."""
+    summary = ROOT / SIM_TO_REAL.directory / "planning" / "summary"
+    paired = pd.read_parquet(summary / "paired.parquet")
+    per_run = pd.read_parquet(summary / "per_run.parquet")
+    robustness = pd.read_parquet(summary / "robustness.parquet")
+    prose = " ".join(
+        (ROOT / SIM_TO_REAL.page)
+        .read_text()
+        .split(SIM_TO_REAL.markers[1])[1]
+        .split("\n\n")[1]
+        .split()
+    )
+    trials, ours, theirs, one = (
+        10,
+        "bilevel/deepest_explored",
+        "bilevel/explored_argmin",
+        "one_level",
+    )
+    for simulator in ("true_hole", "sensed_per_run"):
+        rows = robustness[
+            (robustness["planner.simulated_hole"] == simulator)
+            & (robustness["start_std_m"] == 0.001)
+            & (robustness["model_error"] == "none")
+        ].set_index("method")
+        total = int(rows.loc[one, "runs"]) * trials
+        inserted = (rows["deploy_success_rate"] * rows["runs"] * trials).round().astype(int)
+        assert (
+            f"our rule inserted in {inserted[ours]} of {total} deployment trials, the paper's "
+            f"rule in {inserted[theirs]} of {total} and one-level in {inserted[one]} of {total}"
+            in prose
+        )
+        pairs = paired[paired["level"] == f"{simulator}, starts 0.001 m off"].set_index(
+            ["method", "versus"]
+        )
+        for rule in (ours, theirs):
+            pair = pairs.loc[(rule, one)]
+            assert (
+                f"{pair['better']} of {pair['pairs']} points and lost at {pair['worse']} "
+                f"(p = {pair['sign_test_p']:.3g})" in prose
+            )
+    sensed = per_run[per_run["planner.simulated_hole"] == "sensed_per_run"]
+    bilevel = sensed[sensed["method"].isin([ours, theirs])]
+    by_point = bilevel.groupby(["planner.start_x_m", "planner.seed"]).agg(
+        error=("first_sensing_error_m", "first"),
+        low=("offset_deploy_success_rate", "min"),
+        high=("offset_deploy_success_rate", "max"),
+    )
+    inserted, failed = by_point[by_point["low"] >= 0.9], by_point[by_point["high"] == 0]
+    assert len(inserted) + len(failed) == len(by_point)
+    assert inserted["error"].max() < failed["error"].min()
+    assert (
+        f"at the {len(inserted)} points whose first sensing landed within "
+        f"{1e3 * inserted['error'].max():.1f} mm of the real hole, and in none at the "
+        f"{len(failed)} sensed {1e3 * failed['error'].min():.1f}–"
+        f"{1e3 * failed['error'].max():.1f} mm off" in prose
+    )
+
+
 @pytest.mark.parametrize("study", PUBLISHED, ids=lambda s: s.name)
 def test_the_first_iterations_draws_are_bit_identical_on_this_machine(study):
     """Same config and seed, same draws on any machine (docs/reproducibility.md): every published
