@@ -439,6 +439,7 @@ def test_sim_to_real_prose_quotes_the_published_numbers():
         "bilevel/explored_argmin",
         "one_level",
     )
+    counts = {}
     for simulator in ("true_hole", "sensed_per_run"):
         rows = robustness[
             (robustness["planner.simulated_hole"] == simulator)
@@ -447,6 +448,7 @@ def test_sim_to_real_prose_quotes_the_published_numbers():
         ].set_index("method")
         total = int(rows.loc[one, "runs"]) * trials
         inserted = (rows["deploy_success_rate"] * rows["runs"] * trials).round().astype(int)
+        counts[simulator] = inserted
         assert (
             f"our rule inserted in {inserted[ours]} of {total} deployment trials, the paper's "
             f"rule in {inserted[theirs]} of {total} and one-level in {inserted[one]} of {total}"
@@ -457,10 +459,19 @@ def test_sim_to_real_prose_quotes_the_published_numbers():
         )
         for rule in (ours, theirs):
             pair = pairs.loc[(rule, one)]
-            assert (
-                f"{pair['better']} of {pair['pairs']} points and lost at {pair['worse']} "
-                f"(p = {pair['sign_test_p']:.3g})" in prose
+            won = (
+                f"all {pair['pairs']} points"
+                if pair["worse"] == 0 and pair["tied"] == 0
+                else f"{pair['better']} of {pair['pairs']} points and lost at {pair['worse']}"
             )
+            assert f"{won} (p = {pair['sign_test_p']:.3g})" in prose
+    real = per_run[per_run["planner.simulated_hole"] == "true_hole"]
+    by_run = real.pivot(index=["planner.start_x_m", "planner.seed"], columns="method")
+    offset_rate = by_run["offset_deploy_success_rate"]
+    ((start, seed),) = offset_rate.index[offset_rate[theirs] < offset_rate[one]]
+    assert by_run.loc[(start, seed), ("deploy_success_rate", theirs)] == 0
+    assert offset_rate.loc[(start, seed), theirs] == 0
+    assert f"at −{-1e3 * float(start):g} mm, seed {seed}, its policy inserted in none" in prose
     sensed = per_run[per_run["planner.simulated_hole"] == "sensed_per_run"]
     bilevel = sensed[sensed["method"].isin([ours, theirs])]
     by_point = bilevel.groupby(["planner.start_x_m", "planner.seed"]).agg(
@@ -468,14 +479,43 @@ def test_sim_to_real_prose_quotes_the_published_numbers():
         low=("offset_deploy_success_rate", "min"),
         high=("offset_deploy_success_rate", "max"),
     )
-    inserted, failed = by_point[by_point["low"] >= 0.9], by_point[by_point["high"] == 0]
-    assert len(inserted) + len(failed) == len(by_point)
-    assert inserted["error"].max() < failed["error"].min()
+    near, far = by_point[by_point["low"] >= 0.9], by_point[by_point["high"] == 0]
+    assert len(near) + len(far) == len(by_point)
+    assert near["error"].max() < far["error"].min()
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    real_pairs = paired[paired["level"] == "true_hole, starts 0.001 m off"].set_index(
+        ["method", "versus"]
+    )
+    ours_one, theirs_one = real_pairs.loc[(ours, one)], real_pairs.loc[(theirs, one)]
     assert (
-        f"at the {len(inserted)} points whose first sensing landed within "
-        f"{1e3 * inserted['error'].max():.1f} mm of the real hole, and in none at the "
-        f"{len(failed)} sensed {1e3 * failed['error'].min():.1f}–"
-        f"{1e3 * failed['error'].max():.1f} mm off" in prose
+        f"ours beat one-level at all {ours_one['pairs']} points "
+        f"(p = {ours_one['sign_test_p']:.3g}), the paper's rule at {theirs_one['better']} of "
+        f"{theirs_one['pairs']} (p = {theirs_one['sign_test_p']:.3g})" in readme
+    )
+    sensed_pairs = paired[paired["level"] == "sensed_per_run, starts 0.001 m off"]
+    (better,), (worse,), (p,) = (
+        sensed_pairs[sensed_pairs["versus"] == one][column].unique()
+        for column in ("better", "worse", "sign_test_p")
+    )
+    assert (
+        f"each rule won at {better} points and lost at {worse} (p = {p:.3g}; {inserted[ours]} and {inserted[theirs]} of {total} trials inserted against one-level's {inserted[one]})"
+        in readme
+    )
+    # One-level senses afresh in every trial: some trials insert at every point.
+    one_level = sensed[sensed["method"] == one]["offset_deploy_success_rate"] * trials
+    assert (
+        f"inserted in {one_level.min():.0f} to {one_level.max():.0f} of 10 at every point" in prose
+    )
+    assert (
+        f"at the {len(near)} points whose first sensing landed within "
+        f"{1e3 * near['error'].max():.1f} mm of the real hole, and in none at the "
+        f"{len(far)} sensed {1e3 * far['error'].min():.1f}–"
+        f"{1e3 * far['error'].max():.1f} mm off" in prose
+    )
+    assert (
+        f"at the {len(near)} points sensed within {1e3 * near['error'].max():.1f} mm of "
+        f"the real hole and at none sensed {1e3 * far['error'].min():.1f}–"
+        f"{1e3 * far['error'].max():.1f} mm off" in readme
     )
 
 
