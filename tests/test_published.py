@@ -489,7 +489,7 @@ def test_sim_to_real_prose_quotes_the_published_numbers():
     ours_one, theirs_one = real_pairs.loc[(ours, one)], real_pairs.loc[(theirs, one)]
     assert (
         f"ours beat one-level at all {ours_one['pairs']} points "
-        f"(p = {ours_one['sign_test_p']:.3g}), the paper's rule at {theirs_one['better']} of "
+        f"(p = {ours_one['sign_test_p']:.3g}); the paper's rule beat it at {theirs_one['better']} of "
         f"{theirs_one['pairs']} (p = {theirs_one['sign_test_p']:.3g})" in readme
     )
     sensed_pairs = paired[paired["level"] == "sensed_per_run, starts 0.001 m off"]
