@@ -46,8 +46,9 @@ def tree(root):
     return root
 
 
-def run_file(path, start, success=True, point=None, **columns):
-    """A run's ``rollouts.parquet`` with the provenance that names its sweep point."""
+def run_file(path, start, success=True, point=None, config=None, **columns):
+    """A run's ``rollouts.parquet`` with the provenance that names its sweep point (and, where
+    given, the config it recorded)."""
     from pih.records.outputs import write_table
     from pih.records.provenance import record
 
@@ -55,7 +56,7 @@ def run_file(path, start, success=True, point=None, **columns):
     rows = pd.DataFrame({"phase": ["deploy"], "success": [success], **columns})
     units = {c: ("1", c) for c in rows.columns}
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_table(rows, path, record("plan", point=point), units)
+    write_table(rows, path, record("plan", point=point, config=config), units)
 
 
 def validation_table(path, r_f_x):
@@ -252,22 +253,16 @@ def test_a_default_run_meets_its_copy_in_a_study_that_sweeps_a_key_it_fixes(tmp_
     """The sim-to-real study sweeps planner.simulated_hole, which the default study fixes at
     true_hole: a default run is matched to the study's true_hole run at its point, by the
     level its recorded config sets, and not to the sensed_per_run run."""
-    from pih.records.outputs import write_table
-    from pih.records.provenance import record
-
     point = {"planner.start_x_m": -0.04, "planner.goal": "deepest_explored", "planner.seed": 1}
-    rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
-    units = {c: ("1", c) for c in rows.columns}
     for tree, simulated_hole, name in (
         ("old", "true_hole", "true"),
         ("old", "sensed_per_run", "sensed"),
         ("new", None, "default"),
     ):
-        path = tmp_path / tree / "planning" / name / "rollouts.parquet"
-        path.parent.mkdir(parents=True)
         swept = point | ({"planner.simulated_hole": simulated_hole} if simulated_hole else {})
         config = {"planner": {"simulated_hole": simulated_hole or "true_hole"}}
-        write_table(rows, path, record("plan", point=swept, config=config), units)
+        path = tmp_path / tree / "planning" / name / "rollouts.parquet"
+        run_file(path, -0.04, point=swept, config=config)
 
     result = compare(tmp_path / "old", tmp_path / "new")
     assert [str(d) for d in result.differences] == [
