@@ -86,10 +86,10 @@ def test_default_config_dry_run_lists_the_full_study(tmp_path):
     jobs = planned_jobs(snakemake(work, "-n"))
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     n_points = math.prod(len(levels) for levels in config["sweep"].values())
-    # Four of the paper's 11 starts x 3 goals, one seed: 12 runs, each redeployed once per
+    # Two of the paper's 11 starts x 3 goals x 2 seeds: 12 runs, each redeployed once per
     # robustness level.
-    assert n_points == 4 * 3 * 1
-    assert jobs["plan"] == 4 * 3
+    assert n_points == 2 * 3 * 2
+    assert jobs["plan"] == 2 * 3 * 2
     assert jobs["redeploy"] == jobs["plan"] * len(config["robustness"]["start_std_m"])
     assert jobs["validation_run"] == 4 * len(config["validation"]["variants"]) == 12
     assert jobs["whitney_curve"] == 4
@@ -144,7 +144,7 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
     assert jobs["plan"] == 2  # not 2 x the default's starts and seeds
     assert "Fig. 8 shows the first sweep point" in result.stdout + result.stderr
     default = planned_jobs(snakemake(work, "-n"))
-    assert default["plan"] == 4 * 3  # 4 of the paper's starts x {one-level, two rules}, one seed
+    assert default["plan"] == 2 * 3 * 2  # 2 of the paper's starts x {one-level, two rules} x 2 seeds
     paper = planned_jobs(snakemake(work, "-n", "--configfile", "config/paper.yaml"))
     assert paper["plan"] == 11 * 3  # all of the paper's starts
     full = planned_jobs(snakemake(work, "-n", "--configfile", "config/full.yaml"))
