@@ -11,9 +11,9 @@ for changes: Drake, the scene, the rollout code):
 - ``step_reference_set.parquet``: the step set (below) replayed at 0.0625 ms, and at 0.5, 0.25
   and 0.125 ms; every rollout whose outcome differs among those four steps is replayed once more
   at 0.03125 ms, and ``confirmed`` says whether it ends there as at 0.0625 ms.
-- ``step_reference_deployments.parquet``: the deployment trials the published default study
-  counts (each run's trials from the training start and from starts 1 mm off) replayed at
-  0.0625 ms.
+- ``step_reference_deployments.parquet``: the deployment trials of the step runs (below) as the
+  study's tables count them (each run's trials from the training start and from starts 1 mm off)
+  replayed at 0.0625 ms.
 
 A setting (the config's scene with ``--set scene.KEY=VALUE`` overrides) PASSES when at least
 97 % of the set's insertion outcomes agree with the reference **and** the deployment trials,
@@ -25,7 +25,9 @@ source) that the reference gives. The last line is machine-readable:
 provenance) and ``--against FILE`` replays the set here and compares it with such a file: how far
 outcomes and P2 move when only the machine does (docs/reproducibility.md).
 
-The set (``step_convergence_set.parquet``, committed) and its recipe: from every given run's
+The step runs: the published paper-scale study's 12 runs at starts −40, −38, −34 and −30 mm
+(seed 0; the default study until 2026-12-05), :func:`step_runs`. The set
+(``step_convergence_set.parquet``, committed) and its recipe: from every given run's
 training rollouts (``phase == 'train'``) in the later half of its iterations (contact-rich: by
 then most rollouts reach the chamfer or the hole), an equal number per method (one-level, the
 paper's rule, ours), drawn without replacement by ``numpy.random.default_rng(0)`` after sorting
@@ -36,7 +38,7 @@ by (run, iteration, rollout); 240 in all (80 per method). ``--draw-from RUN ...`
     python benchmarks/step_convergence.py --make-reference set|deployments [--workers 2]
     python benchmarks/step_convergence.py --replay default.parquet
     OPENBLAS_CORETYPE=Sandybridge python benchmarks/step_convergence.py --against default.parquet
-    python benchmarks/step_convergence.py --draw-from published/default/planning/*/rollouts.parquet
+    python benchmarks/step_convergence.py --draw-from published/paper/planning/start_x_m~-0.03_*/rollouts.parquet ...
 """
 
 from __future__ import annotations
@@ -70,7 +72,7 @@ REFERENCE_PATHS = {
     "set": HERE / "step_reference_set.parquet",
     "deployments": HERE / "step_reference_deployments.parquet",
 }
-PUBLISHED_RUNS = "published/default/planning/*/rollouts.parquet"
+STEP_STARTS = ("-0.04", "-0.038", "-0.034", "-0.03")
 SET_SIZE = 240
 AGREEMENT = 0.97
 REFERENCE_STEP_S = 6.25e-5
@@ -107,6 +109,16 @@ UNITS = {
     "varies": ("1", "the outcome differs among the coarser steps and the reference"),
     "confirmed": ("1", "varying rollouts: the outcome at 0.03125 ms equals the reference's"),
 }
+
+
+def step_runs(root: Path = Path()) -> list[Path]:
+    """The runs the step check stands on (module docstring): each run's ``rollouts.parquet``."""
+    planning = root / "published" / "paper" / "planning"
+    return sorted(
+        path
+        for start in STEP_STARTS
+        for path in planning.glob(f"start_x_m~{start}_goal~*_seed~0/rollouts.parquet")
+    )
 
 
 def coarse_column(step_s: float) -> tuple[str, tuple[str, str]]:
@@ -230,9 +242,9 @@ def make_reference(part: str, scene: SceneConfig, workers: int, command: str) ->
         rows, planner = read_set(SET_PATH)
         inputs = [SET_PATH]
     else:
-        runs = sorted(Path().glob(PUBLISHED_RUNS))
-        if not runs:
-            raise SystemExit(f"--make-reference deployments: no {PUBLISHED_RUNS} here")
+        runs = step_runs()
+        if len(runs) != 3 * len(STEP_STARTS):
+            raise SystemExit("--make-reference deployments: the step runs are not all here")
         rows, planner = deployment_trials(runs)
         inputs = runs
     started = time.perf_counter()

@@ -11,9 +11,10 @@ import pytest
 from pih.planning.run_record import RecordedRun
 from pih.records.outputs import read_provenance, write_table
 from pih.records.provenance import record
-from pih.study.published import PUBLISHED_DIR
+from pih.study.published import PUBLISHED_STUDIES
 
 ROOT = Path(__file__).resolve().parents[1]
+PAPER_DIR = PUBLISHED_STUDIES["paper"].directory
 
 
 @pytest.fixture(scope="module")
@@ -26,14 +27,15 @@ def step_convergence():
     return module
 
 
-@pytest.mark.skipif(not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study here")
+@pytest.mark.skipif(not (ROOT / PAPER_DIR).is_dir(), reason="no published paper-scale study here")
 def test_the_step_convergence_set_draws_from_the_published_runs(step_convergence):
     """``benchmarks/step_convergence.py --draw-from`` reads today's run records (it broke
     silently when ``planner.goal`` replaced method and rule): an equal share per method, each
     rollout a late training rollout of its run, drawn the same way twice; the committed set is
     that draw."""
     module = step_convergence
-    runs = sorted((ROOT / PUBLISHED_DIR / "planning").glob("*/rollouts.parquet"))
+    runs = step_convergence.step_runs(ROOT)
+    assert len(runs) == 3 * len(module.STEP_STARTS)  # the three methods at every step start
     drawn = module.draw_set(runs)
     assert drawn["method"].value_counts().to_dict() == {
         "deepest_explored": 80,
@@ -48,12 +50,12 @@ def test_the_step_convergence_set_draws_from_the_published_runs(step_convergence
     assert planner == RecordedRun.read(runs[0]).planner
 
 
-@pytest.mark.skipif(not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study here")
+@pytest.mark.skipif(not (ROOT / PAPER_DIR).is_dir(), reason="no published paper-scale study here")
 def test_the_step_check_replays_the_deployment_trials_a_study_reports(step_convergence):
     """The deployments part of the check (``--make-reference deployments``): every run's
     deployment trials, from the training start and from each redeployment's offset starts, as
     the study's tables count them."""
-    runs = sorted((ROOT / PUBLISHED_DIR / "planning").glob("*/rollouts.parquet"))
+    runs = step_convergence.step_runs(ROOT)
     trials, planner = step_convergence.deployment_trials(runs)
     assert planner == RecordedRun.read(runs[0]).planner
     per_run = trials.groupby(["run", "source"]).size()
@@ -125,8 +127,8 @@ REFERENCES = ("set", "deployments")
 @pytest.mark.parametrize("part", REFERENCES)
 def test_the_committed_reference_is_the_set_and_the_published_trials(step_convergence, part):
     """Each committed reference replays exactly what it claims to, at the reference step, under
-    this Drake: the committed set's rollouts, or the published default study's deployment trials
-    (from the training start and from offset starts)."""
+    this Drake: the committed set's rollouts, or the step runs' deployment trials (from the
+    training start and from offset starts)."""
     path = step_convergence.REFERENCE_PATHS[part]
     if not path.is_file():
         pytest.skip(f"{path.name} not made yet (--make-reference {part})")
@@ -139,7 +141,7 @@ def test_the_committed_reference_is_the_set_and_the_published_trials(step_conver
         assert set_planner == planner
         assert (reference["varies"] | reference["confirmed"]).all()
     else:
-        runs = sorted((ROOT / PUBLISHED_DIR / "planning").glob("*/rollouts.parquet"))
+        runs = step_convergence.step_runs(ROOT)
         rows, _ = step_convergence.deployment_trials(runs)
     keys = [c for c in rows.columns if c != "weights"]
     pd.testing.assert_frame_equal(reference[keys], rows[keys])

@@ -11,7 +11,7 @@ levels (docs/reproducibility.md):
 
 When the data differ, the two trees' provenance says what differs between the machines and code
 that made them (:func:`likely_causes`). When OLD holds every planning run NEW does and more (the
-paper-scale study against a fresh default run, its 4-start subset), OLD is read at NEW's sweep
+sim-to-real study against a fresh default run, a subset of its runs), OLD is read at NEW's sweep
 points only, its planning tables remade from those runs (:func:`runs_at_points`); runs are
 matched over both trees' sweep keys (:func:`run_directories`). No Drake, no simulation: it reads
 Parquet files.
