@@ -144,7 +144,7 @@ def test_own_config_file_defines_its_own_sweep(tmp_path):
     assert jobs["plan"] == 2  # not 2 x the default's starts and seeds
     assert "Fig. 8 shows the first sweep point" in result.stdout + result.stderr
     default = planned_jobs(snakemake(work, "-n"))
-    assert default["plan"] == 2 * 3 * 2  # 2 of the paper's starts x {one-level, two rules} x 2 seeds
+    assert default["plan"] == 2 * 3 * 2  # 2 of the paper's starts x 3 methods x 2 seeds
     paper = planned_jobs(snakemake(work, "-n", "--configfile", "config/paper.yaml"))
     assert paper["plan"] == 11 * 3  # all of the paper's starts
     full = planned_jobs(snakemake(work, "-n", "--configfile", "config/full.yaml"))
