@@ -217,16 +217,17 @@ def test_a_tree_that_is_not_one_is_one_line(tmp_path, capsys):
 
 
 def test_a_bigger_old_study_is_read_at_the_new_ones_sweep_points(tmp_path, capsys):
-    """A fresh default run against the paper-scale study, which holds its runs and more: OLD is
+    """A fresh default run against the sim-to-real study, which holds its runs and more: OLD is
     read at NEW's sweep points, its tables remade from those runs, and reproduces bit for bit
-    (here: the published default's runs at one start against the whole published default)."""
+    (here: the published default's runs at one start and seed against the whole published
+    default)."""
     from pih.study.planning_summary import write_pooled_summary
     from pih.study.pooling import find_outputs, pool
 
     old = ROOT / "published" / "default"
     new = tmp_path / "new"
     shutil.copytree(old / "validation", new / "validation")
-    for run in sorted((old / "planning").glob("start_x_m~-0.04_*")):
+    for run in sorted((old / "planning").glob("start_x_m~-0.04_*_seed~0")):
         shutil.copytree(run, new / "planning" / run.name)
     write_pooled_summary(pool(*find_outputs([new / "planning"])), new / "planning" / "summary")
 

@@ -234,12 +234,14 @@ def test_readme_reports_only_published_numbers(study):
     not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study in this checkout"
 )
 def test_readme_prose_quotes_the_published_numbers():
-    """The sentences under README's generated table quote the published tables: trials that
-    inserted from offset starts, pairs won, the interval's bound and the goal iterations."""
+    """The sentences under README's generated table for the default study quote its tables: trials
+    that inserted from offset starts per method, each rule's pairs against one-level with the
+    sign test's p, the run where a rule inserted in none, and the goal iterations."""
     summary = ROOT / PUBLISHED_DIR / "planning" / "summary"
     robustness = pd.read_parquet(summary / "robustness.parquet")
     success = pd.read_parquet(summary / "success.parquet").set_index("method")
     paired = pd.read_parquet(summary / "paired.parquet")
+    per_run = pd.read_parquet(summary / "per_run.parquet")
     record = pd.read_parquet(next((ROOT / PUBLISHED_DIR / "planning").glob("*/rollouts.parquet")))
     trials = int((record["phase"] == "deploy").sum())
     offset = robustness[(robustness["start_std_m"] > 0) & (robustness["model_error"] == "none")]
@@ -252,22 +254,32 @@ def test_readme_prose_quotes_the_published_numbers():
         (ROOT / "README.md").read_text().split("<!-- /PUBLISHED-RESULTS -->")[1].split()
     )
     total = runs * trials
-    assert inserted["bilevel/deepest_explored"] == inserted["bilevel/explored_argmin"] == total
-    assert f"inserted in all {total} deployment trials" in prose
-    assert f"one-level in {inserted['one_level']} of {total}" in prose
-    against_one_level = paired[
-        (paired["versus"] == "one_level")
-        & (paired["dimension"] == "start_std_m")
-        & (paired["level"] != "0.0")
-    ]
-    assert (against_one_level["better"] == runs).all()
-    assert f"beat one-level at all {runs} starts" in prose
-    assert f"over {runs} pairs is {against_one_level['sign_test_p'].min():.3g}" in prose
-    low = offset.set_index("method").loc["bilevel/deepest_explored", "deploy_ci_low"]
-    assert f"lower bound of {low:.2f}" in prose
+    ours, theirs, one = "bilevel/deepest_explored", "bilevel/explored_argmin", "one_level"
+    assert (
+        f"our rule inserted in {inserted[ours]} of {total} deployment trials, the paper's rule in "
+        f"{inserted[theirs]} of {total} and one-level in {inserted[one]} of {total}" in prose
+    )
+    pairs = paired[(paired["dimension"] == "start_std_m") & (paired["level"] != "0.0")].set_index(
+        ["method", "versus"]
+    )
+    ours_one, theirs_one = pairs.loc[(ours, one)], pairs.loc[(theirs, one)]
+    assert ours_one["better"] == ours_one["pairs"] == runs
+    assert (
+        f"Ours beat one-level at all {runs} points (p = {ours_one['sign_test_p']:.3g}, the least "
+        f"{runs} pairs allow)" in prose
+    )
+    assert (
+        f"the paper's rule at {theirs_one['better']} of {theirs_one['pairs']} "
+        f"(p = {theirs_one['sign_test_p']:.3g})" in prose
+    )
+    by_run = per_run.pivot(index=["planner.start_x_m", "planner.seed"], columns="method")
+    offset_rate = by_run["offset_deploy_success_rate"]
+    ((start, seed),) = offset_rate.index[offset_rate[theirs] < offset_rate[one]]
+    assert by_run.loc[(start, seed), ("deploy_success_rate", theirs)] == 0
+    assert offset_rate.loc[(start, seed), theirs] == 0
+    assert f"at −{-1e3 * float(start):g} mm, seed {seed}, its policy inserted in none" in prose
     goal = success[success["dimension"] == "all"]["median_goal_iteration"]
-    ours, theirs = goal["bilevel/deepest_explored"], goal["bilevel/explored_argmin"]
-    assert f"median iteration {ours:g} against {theirs:g}" in prose
+    assert f"median iteration {goal[ours]:g} against {goal[theirs]:g}" in prose
 
 
 def test_readme_quotes_the_published_validation():
