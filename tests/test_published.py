@@ -571,6 +571,36 @@ def test_sim_to_real_why_quotes_where_the_failed_trials_end():
     )
 
 
+def test_planner_doc_quotes_where_the_papers_rule_lost():
+    """docs/planner.md's account of the paper's rule's two runs that inserted in none: the
+    iteration from which its goal sat at the bottom, how far above it the deployed goal sat, and
+    where every trial's tip stopped (from the training start and from offset starts)."""
+    inserted_p1_y_m = -0.010 + 0.045  # P1 of a peg whose tip is at H (config.yaml)
+    runs = [
+        ROOT / PAPER.directory / "planning" / "start_x_m~-0.035_goal~explored_argmin_seed~0",
+        ROOT / PUBLISHED_DIR / "planning" / "start_x_m~-0.04_goal~explored_argmin_seed~1",
+    ]
+    if not all(run.is_dir() for run in runs):
+        pytest.skip("the runs are not published here")
+    first, above, tips = [], [], []
+    for run in runs:
+        record = pd.read_parquet(run / "rollouts.parquet")
+        trials = pd.concat(
+            [record, *(pd.read_parquet(f) for f in run.glob("redeploy_*.parquet"))]
+        ).query("phase == 'deploy'")
+        assert not trials["success"].any()
+        goals = record.query("phase == 'train'").groupby("iteration")["goal_y_m"].first()
+        at_bottom = goals.index[(goals - inserted_p1_y_m).abs() < 5e-5]
+        first.append(int(at_bottom[at_bottom > 1].min()))
+        above.append(1e3 * (trials["goal_y_m"].iloc[0] - inserted_p1_y_m))
+        tip = 1e3 * (trials["final_bottom_y_m"] + 0.010)
+        tips.append(f"{tip.min():.2f}–{tip.max():.2f}")
+    doc = " ".join((ROOT / "docs" / "planner.md").read_text().split())
+    assert f"first at iteration {first[0]} and at iteration {first[1]})" in doc
+    assert f"sat {above[0]:.2f} and {above[1]:.2f} mm above that pose" in doc
+    assert f"every trial's tip stopped {tips[0]} and {tips[1]} mm above H" in doc
+
+
 @pytest.mark.parametrize("study", PUBLISHED, ids=lambda s: s.name)
 def test_the_first_iterations_draws_are_bit_identical_on_this_machine(study):
     """Same config and seed, same draws on any machine (docs/reproducibility.md): every published
