@@ -38,7 +38,8 @@ by (run, iteration, rollout); 240 in all (80 per method). ``--draw-from RUN ...`
     python benchmarks/step_convergence.py --make-reference set|deployments [--workers 2]
     python benchmarks/step_convergence.py --replay default.parquet
     OPENBLAS_CORETYPE=Sandybridge python benchmarks/step_convergence.py --against default.parquet
-    python benchmarks/step_convergence.py --draw-from published/paper/planning/start_x_m~-0.03_*/rollouts.parquet ...
+    python benchmarks/step_convergence.py --draw-from \
+        published/paper/planning/start_x_m~-0.0{4,38,34,3}_goal~*_seed~0/rollouts.parquet
 """
 
 from __future__ import annotations
@@ -244,7 +245,10 @@ def make_reference(part: str, scene: SceneConfig, workers: int, command: str) ->
     else:
         runs = step_runs()
         if len(runs) != 3 * len(STEP_STARTS):
-            raise SystemExit("--make-reference deployments: the step runs are not all here")
+            raise SystemExit(
+                f"--make-reference deployments: {len(runs)} of the {3 * len(STEP_STARTS)} step "
+                "runs in published/paper/planning"
+            )
         rows, planner = deployment_trials(runs)
         inputs = runs
     started = time.perf_counter()

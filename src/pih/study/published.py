@@ -73,8 +73,8 @@ PUBLISHED_STUDIES = {
             "default study",
             (*PLANNING_GLOBS, "validation/*.*", "whitney/*.parquet"),
         ),
-        # The paper's 11 starts on seed 0; the default's seed-0 runs are among its 33, draw for
-        # draw.
+        # The paper's 11 starts on seed 0; the default's seed-0 runs are among its 33, draw
+        # for draw.
         PublishedStudy(
             "paper",
             ("config/config.yaml", "config/paper.yaml"),
@@ -82,8 +82,8 @@ PUBLISHED_STUDIES = {
             RUN_GLOBS,
             in_parts=True,
         ),
-        # Planning runs only; the default's 12 runs are its runs on the real hole at -40 and
-        # -30 mm, draw for draw.
+        # Planning runs only; the default's 12 runs are its runs on the real hole at -40 and -30
+        # mm, draw for draw.
         PublishedStudy(
             "sim_to_real",
             ("config/config.yaml", "config/sim_to_real.yaml"),
