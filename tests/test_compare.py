@@ -250,6 +250,35 @@ def test_a_bigger_old_study_is_read_at_the_new_ones_sweep_points(tmp_path, capsy
     assert lost.scope == "" and not lost.conclusions_hold
 
 
+def test_two_studies_that_each_hold_runs_the_other_lacks_are_read_at_their_shared_points(
+    tmp_path,
+):
+    """The paper-scale study (seed 0 only) against a fresh default run (seeds 0-1): both are
+    read at the points they share, their tables remade, and reproduce bit for bit (here: the
+    published default's runs at -40 mm against its seed-0 runs); not when NEW lost a run."""
+    from pih.study.planning_summary import write_pooled_summary
+    from pih.study.pooling import find_outputs, pool
+
+    published = ROOT / "published" / "default"
+    trees = {"old": "start_x_m~-0.04_*", "new": "start_x_m~*_seed~0"}
+    for name, pattern in trees.items():
+        for run in sorted((published / "planning").glob(pattern)):
+            shutil.copytree(run, tmp_path / name / "planning" / run.name)
+        planning = tmp_path / name / "planning"
+        write_pooled_summary(pool(*find_outputs([planning])), planning / "summary")
+    old, new = tmp_path / "old", tmp_path / "new"
+    shutil.copytree(published / "validation", new / "validation")
+
+    result = compare(old, new)
+    assert "holds 6 planning runs and" in result.scope
+    assert "both read at the 3 sweep points they share" in result.scope
+    assert result.data_identical and result.conclusions_hold
+    # A run lost from NEW (its tables count it): both read whole, the runs missing.
+    shutil.rmtree(new / "planning" / "start_x_m~-0.04_goal~sensed_hole_seed~0")
+    lost = compare(old, new)
+    assert lost.scope == "" and not lost.data_identical
+
+
 def test_a_default_run_meets_its_copy_in_a_study_that_sweeps_a_key_it_fixes(tmp_path):
     """The sim-to-real study sweeps planner.simulated_hole, which the default study fixes at
     true_hole: a default run is matched to the study's true_hole run at its point, by the

@@ -12,9 +12,10 @@ levels (docs/reproducibility.md):
 When the data differ, the two trees' provenance says what differs between the machines and code
 that made them (:func:`likely_causes`). When OLD holds every planning run NEW does and more (the
 sim-to-real study against a fresh default run, a subset of its runs), OLD is read at NEW's sweep
-points only, its planning tables remade from those runs (:func:`runs_at_points`); runs are
-matched over both trees' sweep keys (:func:`run_directories`). No Drake, no simulation: it reads
-Parquet files.
+points only, its planning tables remade from those runs (:func:`runs_at_points`); when each holds
+runs the other lacks (the paper-scale study, seed 0 only, against a fresh default run on seeds
+0-1), both are read at the points they share (:func:`shared_points`). Runs are matched over both
+trees' sweep keys (:func:`run_directories`). No Drake, no simulation: it reads Parquet files.
 """
 
 from __future__ import annotations
@@ -123,8 +124,8 @@ class Comparison:
     checks: list[Check]
     causes: list[str]
     scope: str = ""
-    """How OLD was read when it holds more runs than NEW (:func:`runs_at_points`); empty when
-    whole."""
+    """How the trees were read when one holds runs the other lacks (:func:`runs_at_points`,
+    :func:`shared_points`); empty when whole."""
 
     @property
     def data_identical(self) -> bool:
@@ -248,21 +249,42 @@ def runs_at_points(old: Path, new: Path, scratch: Path, keys: Iterable[str] = ()
     complete): a copy under ``scratch`` of OLD restricted to NEW's sweep points (its other
     outputs whole), with the planning tables remade from those runs as ``pih aggregate`` makes
     them; None otherwise."""
-    from pih.study.planning_summary import write_pooled_summary
-    from pih.study.pooling import find_outputs, pool
-
     before, after = run_directories(old, keys), run_directories(new, keys)
     bigger = set(after) < set(before) or not (old / SUCCESS).is_file()
     if not after or not set(after) <= set(before) or not bigger or not pools_its_runs(new):
         return None
-    tree = scratch / old.name
-    for entry in old.iterdir():
+    return _restricted(old, before, set(after), scratch / "old")
+
+
+def shared_points(
+    old: Path, new: Path, scratch: Path, keys: Iterable[str] = ()
+) -> tuple[Path, Path] | None:
+    """When NEW is a whole study (:func:`pools_its_runs`) and each tree holds planning runs the
+    other lacks: copies under ``scratch`` of both, restricted to the sweep points they share
+    (:func:`_restricted`); None otherwise (no shared point, or one tree holds all the other's)."""
+    before, after = run_directories(old, keys), run_directories(new, keys)
+    shared = set(before) & set(after)
+    if not shared or shared in (set(before), set(after)) or not pools_its_runs(new):
+        return None
+    return (
+        _restricted(old, before, shared, scratch / "old"),
+        _restricted(new, after, shared, scratch / "new"),
+    )
+
+
+def _restricted(tree: Path, runs: Mapping[str, Path], points: set[str], copy: Path) -> Path:
+    """``copy``: ``tree`` with only the planning ``runs`` at ``points`` (its other outputs
+    whole) and the planning tables remade from them as ``pih aggregate`` makes them."""
+    from pih.study.planning_summary import write_pooled_summary
+    from pih.study.pooling import find_outputs, pool
+
+    for entry in tree.iterdir():
         if entry.name != "planning" and entry.is_dir():
-            shutil.copytree(entry, tree / entry.name)
-    for key in after:
-        shutil.copytree(before[key], tree / "planning" / before[key].name)
-    write_pooled_summary(pool(*find_outputs([tree / "planning"])), tree / "planning" / "summary")
-    return tree
+            shutil.copytree(entry, copy / entry.name)
+    for key in sorted(points):
+        shutil.copytree(runs[key], copy / "planning" / runs[key].name)
+    write_pooled_summary(pool(*find_outputs([copy / "planning"])), copy / "planning" / "summary")
+    return copy
 
 
 def _same_data(a: Path, b: Path) -> bool:
@@ -381,6 +403,7 @@ def compare(
     with tempfile.TemporaryDirectory(prefix="pih-compare-") as scratch:
         keys = swept_keys(old) | swept_keys(new)
         subset = runs_at_points(old, new, Path(scratch), keys)
+        shared = None if subset else shared_points(old, new, Path(scratch), keys)
         scope = ""
         if subset is not None:
             scope = (
@@ -388,10 +411,18 @@ def compare(
                 f"{len(run_directories(new))} sweep points {new} has, its tables remade from them"
             )
             old = subset
-        # A study read at NEW's points is compared on what it carries (the paper-scale study
+        elif shared is not None:
+            scope = (
+                f"{old} holds {len(run_directories(old))} planning runs and {new} "
+                f"{len(run_directories(new))}: both read at the "
+                f"{len(run_directories(shared[0]))} sweep points they share, their tables remade "
+                "from them"
+            )
+            old, new = shared
+        # A study read at some points is compared on what it carries (the paper-scale study
         # publishes planning runs only, not a validation of its own).
         tables = HEADLINE_TABLES
-        if subset is not None:
+        if scope:
             tables = tuple(t for t in HEADLINE_TABLES if (old / t[0]).is_file())
         differences, items = headline_differences(old, new, rtol, tables)
         differences += run_differences(old, new, keys)
