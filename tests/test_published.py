@@ -233,6 +233,18 @@ def test_readme_reports_only_published_numbers(study):
 @pytest.mark.skipif(
     not (ROOT / PUBLISHED_DIR).is_dir(), reason="no published default study in this checkout"
 )
+def _assert_names_the_lost_run(per_run: pd.DataFrame, prose: str) -> None:
+    """The one (start, seed) where the paper's rule deployed less often than one-level inserted in
+    none of its trials (from the training start and from offset starts), and ``prose`` names it."""
+    theirs, one = "bilevel/explored_argmin", "one_level"
+    by_run = per_run.pivot(index=["planner.start_x_m", "planner.seed"], columns="method")
+    offset_rate = by_run["offset_deploy_success_rate"]
+    ((start, seed),) = offset_rate.index[offset_rate[theirs] < offset_rate[one]]
+    assert by_run.loc[(start, seed), ("deploy_success_rate", theirs)] == 0
+    assert offset_rate.loc[(start, seed), theirs] == 0
+    assert f"at −{-1e3 * float(start):g} mm, seed {seed}, its policy inserted in none" in prose
+
+
 def test_readme_prose_quotes_the_published_numbers():
     """The sentences under README's generated table for the default study quote its tables: trials
     that inserted from offset starts per method, each rule's pairs against one-level with the
@@ -272,12 +284,7 @@ def test_readme_prose_quotes_the_published_numbers():
         f"the paper's rule at {theirs_one['better']} of {theirs_one['pairs']} "
         f"(p = {theirs_one['sign_test_p']:.3g})" in prose
     )
-    by_run = per_run.pivot(index=["planner.start_x_m", "planner.seed"], columns="method")
-    offset_rate = by_run["offset_deploy_success_rate"]
-    ((start, seed),) = offset_rate.index[offset_rate[theirs] < offset_rate[one]]
-    assert by_run.loc[(start, seed), ("deploy_success_rate", theirs)] == 0
-    assert offset_rate.loc[(start, seed), theirs] == 0
-    assert f"at −{-1e3 * float(start):g} mm, seed {seed}, its policy inserted in none" in prose
+    _assert_names_the_lost_run(per_run, prose)
     goal = success[success["dimension"] == "all"]["median_goal_iteration"]
     seed_1 = per_run[
         (per_run["planner.seed"].astype(int) == 1) & per_run["method"].isin([ours, theirs])
@@ -486,13 +493,7 @@ def test_sim_to_real_prose_quotes_the_published_numbers():
                 else f"{pair['better']} of {pair['pairs']} points and lost at {pair['worse']}"
             )
             assert f"{won} (p = {pair['sign_test_p']:.3g})" in prose
-    real = per_run[per_run["planner.simulated_hole"] == "true_hole"]
-    by_run = real.pivot(index=["planner.start_x_m", "planner.seed"], columns="method")
-    offset_rate = by_run["offset_deploy_success_rate"]
-    ((start, seed),) = offset_rate.index[offset_rate[theirs] < offset_rate[one]]
-    assert by_run.loc[(start, seed), ("deploy_success_rate", theirs)] == 0
-    assert offset_rate.loc[(start, seed), theirs] == 0
-    assert f"at −{-1e3 * float(start):g} mm, seed {seed}, its policy inserted in none" in prose
+    _assert_names_the_lost_run(per_run[per_run["planner.simulated_hole"] == "true_hole"], prose)
     sensed = per_run[per_run["planner.simulated_hole"] == "sensed_per_run"]
     bilevel = sensed[sensed["method"].isin([ours, theirs])]
     by_point = bilevel.groupby(["planner.start_x_m", "planner.seed"]).agg(
