@@ -26,7 +26,8 @@
   (deployment success inside OLD's intervals, paired signs, validation r; exit 0 when they hold)
   and its data (headline numbers and planning runs' data, each that differs named, with the
   likely cause from the provenance: another CPU, Drake or code); an OLD that holds NEW's runs
-  and more (``pih compare published/sim_to_real results``) is read at NEW's sweep points;
+  and more (``pih compare published/sim_to_real results``) is read at NEW's sweep points, two
+  trees that each hold runs the other lacks (``published/paper``) at the points they share;
 - ``pih publish [RESULTS] [--study default|sim_to_real|paper]``: copy a finished run of a
   published study (data, tables, figures, provenance; not the recordings) into
   ``published/<study>``, the files README's numbers come from, and regenerate README's results
