@@ -62,9 +62,10 @@ from pih.planning.config import ONE_LEVEL, PlannerConfig
 from pih.planning.planner import Planner, RolloutWorkers
 from pih.planning.run_record import RecordedRun, recorded_rollout, succeeded
 from pih.records.outputs import read_provenance, write_table
-from pih.records.provenance import package_versions, record, rollout_code_hash
+from pih.records.provenance import package_versions, record
 from pih.scene.config import SceneConfig
 from pih.study.config import load_config, scene_settings, scene_with
+from pih.study.equivalence import current_hashes
 from pih.study.pooling import REDEPLOY_PATTERNS
 
 HERE = Path(__file__).parent
@@ -292,7 +293,8 @@ def make_reference(part: str, scene: SceneConfig, workers: int, command: str) ->
 
 def read_reference(part: str) -> tuple[pd.DataFrame, PlannerConfig]:
     """A committed reference and its planner config; refused (one line) when another Drake made
-    it, since it then stands for other physics. Other rollout code is said, not refused: a lever
+    it, since it then stands for other physics. Rollout code neither today's nor verified equivalent
+    to it (:mod:`pih.study.equivalence`) is said, not refused: a lever
     under test changes the code, and the reference is what it is judged against."""
     path = REFERENCE_PATHS[part]
     if not path.is_file():
@@ -301,7 +303,7 @@ def read_reference(part: str) -> tuple[pd.DataFrame, PlannerConfig]:
     drake, made_by = package_versions()["drake"], provenance["packages"]["drake"]
     if made_by != drake:
         raise SystemExit(f"{path}: made by Drake {made_by}, not {drake}; --make-reference {part}")
-    if provenance["rollout_code_sha256"] != rollout_code_hash():
+    if provenance["rollout_code_sha256"] not in current_hashes():
         print(f"{path}: made by other rollout code ({provenance['code_version']})")
     planner = from_mapping(PlannerConfig, provenance["config"]["planner"], "planner")
     return pd.read_parquet(path), planner

@@ -29,10 +29,7 @@ def test_stale_published_runs_are_named(tmp_path):
     from pih.records.outputs import write_table
     from pih.records.provenance import record
 
-    expected = {
-        point_key(p): {"scene": {"solver": {"time_step_s": 0.001}}, "planner": {"seed": p["s"]}}
-        for p in ({"s": 0}, {"s": 1})
-    }
+    expected = {point_key({"s": seed}): _sections(0.001, seed) for seed in (0, 1)}
     rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
     for seed in (0, 1):
         point = {"s": seed}
@@ -43,7 +40,7 @@ def test_stale_published_runs_are_named(tmp_path):
     assert stale_reasons(tmp_path, expected) == []
     # Other rollout code, another Drake, a changed config value, a run the config no longer
     # has, one missing.
-    assert stale_reasons(tmp_path, expected, code_sha256="0" * 64) == [
+    assert stale_reasons(tmp_path, expected, current={"0" * 64}) == [
         "planning/s~0/rollouts.parquet: made by other rollout code",
         "planning/s~1/rollouts.parquet: made by other rollout code",
     ]
@@ -52,10 +49,7 @@ def test_stale_published_runs_are_named(tmp_path):
         f"planning/s~{seed}/rollouts.parquet: made by Drake {made_by}, not 1.51.1"
         for seed in (0, 1)
     ]
-    changed = {
-        **expected,
-        point_key({"s": 1}): {"scene": {"solver": {"time_step_s": 0.002}}, "planner": {"seed": 1}},
-    }
+    changed = {**expected, point_key({"s": 1}): _sections(0.002, 1)}
     assert stale_reasons(tmp_path, changed) == [
         "s~1: its scene config differs in solver.time_step_s"
     ]
@@ -66,9 +60,20 @@ def test_stale_published_runs_are_named(tmp_path):
     ]
 
 
+def _sections(time_step_s: float, seed: int) -> dict[str, dict]:
+    """Resolved ``scene`` and ``planner`` sections: the defaults at a step and a seed."""
+    from pih.config import to_mapping
+    from pih.planning.config import PlannerConfig
+    from pih.scene.config import SceneConfig
+
+    scene, planner = to_mapping(SceneConfig()), to_mapping(PlannerConfig())
+    scene["solver"]["time_step_s"] = time_step_s
+    return {"scene": scene, "planner": {**planner, "seed": seed}}
+
+
 def test_a_stale_published_validation_is_named(tmp_path):
-    """The published validation tables are checked as the runs are: their config sections, the
-    rollout code (the scene and Whitney's theory) and Drake."""
+    """The published validation tables are checked as the runs are: their config sections, their
+    own code (the experiment, the scene and Whitney's theory) and Drake."""
     from pih.records.outputs import write_table
     from pih.records.provenance import record
 
@@ -88,7 +93,7 @@ def test_a_stale_published_validation_is_named(tmp_path):
         "validation/comparison.parquet: its validation config differs in speed",
     ]
     assert validation_stale_reasons(tmp_path, sections, code_sha256="0" * 64) == [
-        "validation/comparison.parquet: made by other rollout code"
+        "validation/comparison.parquet: made by other validation code"
     ]
 
 

@@ -34,6 +34,11 @@
   for it; refused when RESULTS is not that study's run at this code. The paper-scale and
   sim-to-real studies are published in parts: each call adds the runs RESULTS holds, and the
   tables are made once all (33, 48) are in;
+- ``pih verify [STUDY_DIR ...]``: whether today's code computes exactly what the code that made
+  the published runs computed: both run one suite (each published configuration at one recorded
+  run, a few iterations) through their own workflow on this machine, every output column compared
+  bit for bit; when all agree, ``published/equivalence.parquet`` gets a row that keeps the runs
+  current (docs/reproducibility.md);
 - ``pih status [DIR] [--configfile F ...]``: a study's progress, from the files in its working
   directory ``DIR`` (default ``.``): planning and validation runs done, running (with their
   iteration) and pending, and the time left (:mod:`pih.workflow.status`);
@@ -184,6 +189,16 @@ def main(argv: list[str] | None = None) -> int:
         default="default",
         help="which published study RESULTS is a run of (default: default)",
     )
+    equivalent = commands.add_parser(
+        "verify",
+        help="does today's code compute what made the published runs (run both on one suite)",
+    )
+    equivalent.add_argument(
+        "studies",
+        type=Path,
+        nargs="*",
+        help="published study directories (default: every one, e.g. published/paper)",
+    )
     watch = commands.add_parser(
         "status", help="a study's progress: runs done, running and pending, and the time left"
     )
@@ -244,6 +259,10 @@ def _run(args: argparse.Namespace) -> int:
         from pih.cli.compare import compare
 
         return compare(args.old, args.new, args.rtol, args.r_tolerance)
+    if args.command == "verify":
+        from pih.cli.verify import verify
+
+        return verify(args.studies)
     from pih.study.schema import config_markdown, config_schema
 
     schema_json = json.dumps(config_schema(), indent=2) + "\n"

@@ -127,15 +127,20 @@ def _build[T](cls: type[T], data: Any, key: str) -> T:
 def with_defaults(cls: type, data: Mapping[str, Any]) -> dict[str, Any]:
     """``data`` with the keys it lacks filled in from ``cls()``'s defaults, at every level: the
     config of a record written before those keys existed (a new key's default keeps the
-    behaviour from before it)."""
-
-    def overlay(base: dict[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
-        for name, value in over.items():
-            nested = isinstance(value, Mapping) and isinstance(base.get(name), dict)
-            base[name] = overlay(base[name], value) if nested else value
-        return base
-
-    return overlay(to_mapping(cls()), data)
+    behaviour from before it). A mapping-valued key (not a config dataclass) is taken as
+    recorded: merging its default entries in would add entries the record never had."""
+    defaults = cls()
+    filled = dict(data)
+    for field in dataclasses.fields(cls):
+        default = getattr(defaults, field.name)
+        if not field.init:
+            continue
+        if field.name not in data:
+            plain = dataclasses.asdict(default) if dataclasses.is_dataclass(default) else default
+            filled[field.name] = json.loads(json.dumps(plain))
+        elif dataclasses.is_dataclass(default) and isinstance(data[field.name], Mapping):
+            filled[field.name] = with_defaults(type(default), data[field.name])
+    return filled
 
 
 def recorded_config[T](cls: type[T], config: Mapping[str, Any], key: str) -> T:

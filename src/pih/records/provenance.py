@@ -15,7 +15,7 @@ import json
 import platform
 import subprocess
 import sys
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -155,6 +155,20 @@ ROLLOUT_MODULES = (
     "study.redeployment",
 )
 
+# The modules whose code decides the validation's numbers (the experiment, its config, the scene
+# and contact, Whitney's theory): the published validation is stale when their hash no longer
+# matches its record. tests/test_published.py checks that it covers what the experiment imports.
+VALIDATION_MODULES = (
+    "validation.experiment",
+    "validation.config",
+    "scene.config",
+    "scene.simulation",
+    "scene.trace",
+    "scene.frames",
+    "whitney.theory",
+    "whitney.frame",
+)
+
 
 class _Behaviour(ast.NodeTransformer):
     """A module's AST without what does not change what it computes: docstrings, and where its
@@ -208,12 +222,24 @@ def _dump(node: object) -> str:
     return repr(node)
 
 
+def modules_hash(names: Iterable[str], source: Callable[[str], str] | None = None) -> str:
+    """sha256 over what the modules ``names`` compute (:func:`behaviour_dump`), in an order that
+    does not depend on their names or paths; ``source(name)`` gives a module's text (default:
+    this library's file; another commit's for the code that made a record)."""
+    source = source or (lambda name: module_path(name).read_text())
+    return sha256_text("\n".join(sorted(behaviour_dump(source(name)) for name in names)))
+
+
 @functools.cache
 def rollout_code_hash() -> str:
-    """sha256 over what :data:`ROLLOUT_MODULES` compute (:func:`behaviour_dump`), in an order
-    that does not depend on their names or paths."""
-    dumps = sorted(behaviour_dump(module_path(name).read_text()) for name in ROLLOUT_MODULES)
-    return sha256_text("\n".join(dumps))
+    """:func:`modules_hash` of :data:`ROLLOUT_MODULES`."""
+    return modules_hash(ROLLOUT_MODULES)
+
+
+@functools.cache
+def validation_code_hash() -> str:
+    """:func:`modules_hash` of :data:`VALIDATION_MODULES`."""
+    return modules_hash(VALIDATION_MODULES)
 
 
 @functools.cache
@@ -321,6 +347,7 @@ def record(
         "code_version": code_version(),
         "library_sha256": library_hash(),
         "rollout_code_sha256": rollout_code_hash(),
+        "validation_code_sha256": validation_code_hash(),
         "allocator": allocator(),
         "machine": json.loads(json.dumps(machine())),  # copies: the cached records stay as read
         "packages": dict(package_versions()),

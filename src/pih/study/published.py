@@ -7,18 +7,21 @@ runs of a study published in parts (the paper-scale and sim-to-real studies,
 :func:`publish_part`), and README's results for it are generated from its tables. The workflow
 never reads it: a fresh clone recomputes everything. :func:`stale_reasons` says why it no longer
 matches the config, the rollout code or the Drake that computes it (tests/test_published.py
-fails then). Whether another run reproduced a published one is :mod:`pih.study.compare`'s.
+fails then): a run is current when its rollout code is today's or was verified to compute the
+same (:mod:`pih.study.equivalence`). Whether another run reproduced a published one is :mod:`pih.study.compare`'s.
 """
 
 from __future__ import annotations
 
 import collections
+import functools
 import importlib.metadata
 import json
 import shutil
+import subprocess
 import tempfile
 import textwrap
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,7 +29,14 @@ from typing import Any
 import pandas as pd
 
 from pih.records.outputs import read_provenance
-from pih.records.provenance import canonical_json, rollout_code_hash
+from pih.records.provenance import (
+    VALIDATION_MODULES,
+    canonical_json,
+    module_path,
+    modules_hash,
+    validation_code_hash,
+)
+from pih.study.equivalence import REPOSITORY, current_hashes
 
 
 @dataclass(frozen=True)
@@ -42,8 +52,10 @@ class PublishedStudy:
     page: str = "README.md"
     """The page whose results block :func:`results_block` generates from this study."""
     in_parts: bool = False
-    """Published run by run from several results trees (sessions, machines) made at one rollout
-    code, config and Drake (:func:`publish_part`); its tables are made once every run is in."""
+    """Published run by run from several results trees (sessions, machines), each run current
+    (:func:`run_stale_reasons`: today's config and Drake, today's rollout code or one verified
+    equivalent to it) when it joined (:func:`publish_part`); its tables are made once every run
+    is in."""
 
     @property
     def directory(self) -> Path:
@@ -128,15 +140,16 @@ def publish(results: Path, study: PublishedStudy, root: Path = Path(".")) -> int
 def stale_reasons(
     published: Path,
     expected: Mapping[str, Mapping[str, object]],
-    code_sha256: str | None = None,
+    current: Collection[str] | None = None,
     drake: str | None = None,
 ) -> list[str]:
     """Why the published planning runs no longer are what the repository would compute: runs
     missing or extra against ``expected`` (:func:`point_key` of a sweep point -> its resolved
     ``scene`` and ``planner`` sections, :func:`pih.study.config.resolved_sections`), a run whose
-    recorded config differs, or whose rollout code (:func:`pih.records.provenance.rollout_code_hash`) or
-    Drake (default: the installed one) does."""
-    code_sha256 = code_sha256 or rollout_code_hash()
+    recorded config differs, whose rollout code is not ``current`` (default: today's and those
+    verified equivalent to it, :func:`pih.study.equivalence.current_hashes`), or whose Drake
+    is not ``drake`` (default: the installed one)."""
+    current = current_hashes() if current is None else current
     drake = drake or importlib.metadata.version("drake")
     runs = runs_by_point(published / "planning", _sweep_keys(expected))
     reasons = [f"sweep point {key} is not published" for key in sorted(set(expected) - set(runs))]
@@ -145,7 +158,7 @@ def stale_reasons(
         for key in sorted(set(runs) - set(expected))
     ]
     for key in sorted(set(runs) & set(expected)):
-        reasons += run_stale_reasons(runs[key], expected[key], published, code_sha256, drake)
+        reasons += run_stale_reasons(runs[key], expected[key], published, current, drake)
     return reasons
 
 
@@ -169,16 +182,27 @@ def validation_stale_reasons(
     drake: str | None = None,
 ) -> list[str]:
     """Why a study's validation tables (:data:`VALIDATION_TABLES`, those it has) are not what the
-    repository computes: made by other rollout code (the scene, contact and Whitney's theory are
-    in it) or another Drake, or for another ``scene`` or ``validation`` config section."""
-    code_sha256 = code_sha256 or rollout_code_hash()
+    repository computes: made by other validation code (``code_sha256``, default
+    :func:`pih.records.provenance.validation_code_hash`: the experiment, the scene and contact,
+    Whitney's theory) or another Drake, or for another ``scene`` or ``validation`` config
+    section. A table whose record predates the validation hash is judged by the hash of the
+    validation modules at the commit that made it, read from git."""
+    code_sha256 = code_sha256 or validation_code_hash()
     drake = drake or importlib.metadata.version("drake")
     reasons = []
     for table in VALIDATION_TABLES:
         if not (published / table).is_file():
             continue
         made = read_provenance(published / table)
-        reasons += _made_elsewhere(made, table, code_sha256, drake)
+        made_by = made.get("validation_code_sha256") or validation_hash_at(made["code_version"])
+        if made_by is None:
+            reasons.append(
+                f"{table}: made at {made['code_version']}, a commit this repository's history "
+                "does not hold, so its validation code is unknown"
+            )
+        elif made_by != code_sha256:
+            reasons.append(f"{table}: made by other validation code")
+        reasons += _made_elsewhere(made, table, None, drake)
         for section, now in sections.items():
             recorded = (made.get("config") or {}).get(section) or {}
             keys = _differing_keys(recorded, json.loads(canonical_json(now)))
@@ -191,35 +215,82 @@ def run_stale_reasons(
     path: Path,
     sections: Mapping[str, object],
     root: Path,
-    code_sha256: str | None = None,
+    current: Collection[str] | None = None,
     drake: str | None = None,
 ) -> list[str]:
     """Why one planning run (its ``rollouts.parquet`` and redeployments) is not what the
     repository computes for its sweep point's resolved ``sections`` (:func:`stale_reasons`);
-    paths are named relative to ``root``."""
-    code_sha256 = code_sha256 or rollout_code_hash()
+    paths are named relative to ``root``. The run's recorded ``scene`` and ``planner`` read
+    through today's schema (:func:`recorded_sections`): a key it predates counts at its
+    default, a key today's code no longer has is a reason."""
+    current = current_hashes() if current is None else current
     drake = drake or importlib.metadata.version("drake")
     reasons = []
     for data in [path, *sorted(path.parent.glob("redeploy_*.parquet"))]:
-        reasons += _made_elsewhere(
-            read_provenance(data), data.relative_to(root), code_sha256, drake
-        )
+        reasons += _made_elsewhere(read_provenance(data), data.relative_to(root), current, drake)
     recorded = read_provenance(path)["config"]
-    for section in ("scene", "planner"):
+    for section, then in recorded_sections(recorded).items():
+        if isinstance(then, str):
+            reasons.append(f"{path.parent.name}: its {section} config {then}")
+            continue
         now = json.loads(canonical_json(sections[section]))
-        if recorded.get(section) != now:
-            keys = ", ".join(_differing_keys(recorded.get(section) or {}, now))
+        if then != now:
+            keys = ", ".join(_differing_keys(then, now))
             reasons.append(f"{path.parent.name}: its {section} config differs in {keys}")
     return reasons
 
 
+def recorded_sections(config: Mapping[str, Any]) -> dict[str, dict[str, Any] | str]:
+    """A run's recorded ``scene`` and ``planner`` sections as today's schema reads them (keys
+    the run predates at their defaults, :func:`pih.config.recorded_config`), or for a section
+    today's schema refuses, why (a key it no longer has)."""
+    from pih.config import ConfigError, recorded_config, to_mapping
+    from pih.planning.config import recorded_planner
+    from pih.scene.config import SceneConfig
+
+    readers = {
+        "scene": lambda: recorded_config(SceneConfig, config, "scene"),
+        "planner": lambda: recorded_planner(config),
+    }
+    sections: dict[str, dict[str, Any] | str] = {}
+    for section, read in readers.items():
+        try:
+            sections[section] = to_mapping(read())
+        except (ConfigError, KeyError, TypeError) as error:
+            sections[section] = f"no longer reads: {str(error).splitlines()[0]}"
+    return sections
+
+
+@functools.cache
+def validation_hash_at(commit: str) -> str | None:
+    """:func:`pih.records.provenance.modules_hash` of :data:`VALIDATION_MODULES` as they were
+    at ``commit`` (``-dirty`` dropped), read from this repository's git history; None when it
+    does not hold them."""
+
+    def source(name: str) -> str:
+        path = module_path(name).relative_to(REPOSITORY).as_posix()
+        return subprocess.run(
+            ["git", "show", f"{commit.removesuffix('-dirty')}:{path}"],
+            cwd=REPOSITORY,
+            capture_output=True,
+            text=True,
+            check=True,
+            timeout=30,
+        ).stdout
+
+    try:
+        return modules_hash(VALIDATION_MODULES, source)
+    except (OSError, subprocess.SubprocessError):
+        return None
+
+
 def _made_elsewhere(
-    made: Mapping[str, object], name: object, code_sha256: str, drake: str
+    made: Mapping[str, object], name: object, current: Collection[str] | None, drake: str
 ) -> list[str]:
-    """Why a file's provenance ``made`` is not this repository's: other rollout code, another
-    Drake."""
+    """Why a file's provenance ``made`` is not this repository's: rollout code not ``current``
+    (None: not checked), another Drake."""
     reasons = []
-    if made.get("rollout_code_sha256") != code_sha256:
+    if current is not None and made.get("rollout_code_sha256") not in current:
         reasons.append(f"{name}: made by other rollout code")
     made_by = (made.get("packages") or {}).get("drake")
     if made_by != drake:
@@ -244,7 +315,8 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
     its config makes) to its published directory; runs of other sweep points, and runs whose
     redeployments are not all there yet, are left out. Refused in one line before anything is
     copied: a run, new or published before, that is not what this repository computes
-    (:func:`run_stale_reasons`: so every part has one rollout code, config and Drake), or one
+    (:func:`run_stale_reasons`: each run at today's config and Drake, and today's rollout code or
+    one verified equivalent to it), or one
     already published whose rollouts differ. Each run's provenance says where it was made
     (host, CPU, code version, date). Once every run is in, the study's planning tables are made
     from them (``planning/summary``)."""

@@ -1,0 +1,47 @@
+"""``pih verify [STUDY_DIR ...]``: today's code computes what made the published runs
+(:mod:`pih.study.verification`)."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+from pih.cli.common import first_line
+
+
+def verify(directories: list[Path]) -> int:
+    """Print one line per suite item; 0 when the published runs are current or were verified
+    (a row added to the equivalence record), 1 when an output differs or the input is bad."""
+    from pih.study.equivalence import RECORD, REPOSITORY
+    from pih.study.published import PUBLISHED_STUDIES
+    from pih.study.verification import Study
+    from pih.study.verification import verify as run
+
+    started = time.monotonic()
+    studies = []
+    for directory in directories or [REPOSITORY / s.directory for s in PUBLISHED_STUDIES.values()]:
+        study = PUBLISHED_STUDIES.get(Path(directory).resolve().name)
+        if study is None or not Path(directory).is_dir():
+            names = ", ".join(f"published/{name}" for name in PUBLISHED_STUDIES)
+            print(f"pih verify: {directory}: not a published study ({names})", file=sys.stderr)
+            return 1
+        studies.append(Study(Path(directory).resolve(), study.config_files))
+    try:
+        verifications = run(
+            studies, REPOSITORY, RECORD, progress=lambda line: print(line, flush=True)
+        )
+    except (OSError, ValueError, LookupError, RuntimeError) as error:
+        print(f"pih verify: {first_line(error)}", file=sys.stderr)
+        return 1
+    minutes = (time.monotonic() - started) / 60
+    differences = [d for v in verifications for d in v.differences]
+    if differences:
+        print(f"pih verify: NOT equivalent, nothing recorded: {differences[0]}", file=sys.stderr)
+        return 1
+    for v in verifications:
+        print(
+            f"verified: {v.from_hash[:12]} ({v.from_commit}) -> {v.to_hash[:12]}, recorded in {RECORD.name}"
+        )
+    print(f"pih verify: {minutes:.1f} min")
+    return 0

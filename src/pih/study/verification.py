@@ -1,0 +1,419 @@
+"""``pih verify``: today's code computes exactly what the code that made the published runs
+computed, shown on this machine by running both on one suite (docs/reproducibility.md, "What
+current means").
+
+The suite is the published studies' configurations: their resolved ``scene`` and ``planner``
+sections without the levels of their situation keys (start, seed), deduplicated. Each item runs
+one recorded (start, seed) of its configuration through each version's own workflow (its
+Snakefile, scripts, config files and library, in a process of its own) until one iteration past
+the first whose mean inserted, with its deployment trials and offset redeployment; every output
+column is compared bit for bit. When all are identical, the equivalence record gets one row from
+the published runs' hash to today's (:mod:`pih.study.equivalence`).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import hashlib
+import io
+import json
+import os
+import subprocess
+import sys
+import tarfile
+import tempfile
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from pih.records.provenance import canonical_json, machine, package_versions
+
+TREE_FILES = ("Snakefile", "workflow", "config", "src")
+"""What one version of the code is: its workflow, its config files and its library."""
+HASH_OF_TREE = (
+    "import importlib, sys\n"
+    "for name in ('pih.records.provenance', 'pih.provenance'):\n"
+    "    try:\n"
+    "        module = importlib.import_module(name)\n"
+    "    except ImportError:\n"
+    "        continue\n"
+    "    print(module.__file__, module.rollout_code_hash())\n"
+    "    sys.exit(0)\n"
+    "sys.exit('no rollout_code_hash in this tree')\n"
+)
+"""Run in a tree's own interpreter process: which library loaded, and its own hash of itself."""
+
+
+@dataclass(frozen=True)
+class Study:
+    """A published study's directory and its config files (relative to the repository)."""
+
+    directory: Path
+    config_files: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Item:
+    """One configuration of the suite, at one recorded run of it."""
+
+    name: str
+    config_files: tuple[str, ...]
+    point: dict[str, Any]
+    """The recorded run's sweep point (dotted keys): each version runs it as a one-point sweep."""
+    iterations: int
+    """One past the first iteration whose mean inserted in the recorded run."""
+    redeployment: str
+    """The offset redeployment's file name."""
+
+    @property
+    def run(self) -> str:
+        """The run's directory name, as the workflow names a one-point sweep's run."""
+        return "_".join(f"{key.rsplit('.', 1)[-1]}~{level}" for key, level in self.point.items())
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        return ("rollouts.parquet", "best_paths.parquet", self.redeployment)
+
+
+@dataclass
+class Verification:
+    """What :func:`verify` found."""
+
+    from_hash: str
+    to_hash: str
+    from_commit: str = ""
+    digests: dict[str, str] = field(default_factory=dict)
+    differences: list[str] = field(default_factory=list)
+
+
+def read_provenance_of(path: Path) -> dict[str, Any]:
+    """A Parquet output's provenance, or one line naming the file that cannot be read."""
+    from pih.records.outputs import read_provenance
+
+    try:
+        return read_provenance(path)
+    except Exception as error:  # noqa: BLE001 - pyarrow's errors for a damaged file vary
+        raise ValueError(f"{path}: not a readable output ({str(error).splitlines()[0]})") from None
+
+
+def run_files(studies: Iterable[Study], root: Path) -> list[Path]:
+    """Every planning run's ``rollouts.parquet`` and redeployment under the studies; one line
+    naming a directory that holds none."""
+    files = []
+    for study in studies:
+        planning = root / study.directory / "planning"
+        found = sorted(planning.glob("*/rollouts.parquet"))
+        if not found:
+            raise ValueError(f"{study.directory}: no planning runs (planning/*/rollouts.parquet)")
+        for path in found:
+            files += [path, *sorted(path.parent.glob("redeploy_*.parquet"))]
+    return files
+
+
+def suite(studies: Iterable[Study], root: Path) -> list[Item]:
+    """The studies' configurations without their situation levels, deduplicated, each at its
+    recorded run whose mean inserted earliest (the shortest that reaches the insertion
+    branches)."""
+    from pih.study.config import is_method_key
+    from pih.study.published import (
+        _sweep_keys,
+        expected_redeployments,
+        expected_runs,
+        runs_by_point,
+    )
+
+    candidates: dict[str, list[tuple[int, str, Item]]] = {}
+    for study in studies:
+        files = tuple(str(root / f) for f in study.config_files)
+        expected = expected_runs(files)
+        offset = sorted(
+            (name for name in expected_redeployments(files) if "start_std_m~" in name),
+            key=lambda name: float(name.split("~")[1].removesuffix(".parquet")),
+        )
+        offset = [name for name in offset if float(name.split("~")[1][:-8]) > 0] or offset
+        runs = runs_by_point(root / study.directory / "planning", _sweep_keys(expected))
+        for key, path in sorted(runs.items()):
+            if key not in expected:
+                continue
+            point = json.loads(key)
+            sections = json.loads(canonical_json(expected[key]))
+            for dotted in (k for k in point if not is_method_key(k)):
+                section, *rest = dotted.split(".")
+                level = sections[section]
+                for name in rest[:-1]:
+                    level = level[name]
+                level.pop(rest[-1], None)
+            planner = sections["planner"]
+            methods = {"planner.goal": planner["goal"]}
+            methods |= {k: v for k, v in point.items() if is_method_key(k)}
+            methods.setdefault("planner.simulated_hole", planner["simulated_hole"])
+            name = ", ".join(str(level) for level in methods.values())
+            first = _first_inserted_mean(path)
+            budget = planner["iterations"]
+            iterations = min(budget, first + 1) if first else min(budget, 2)
+            item = Item(name, study.config_files, point, iterations, offset[0] if offset else "")
+            candidates.setdefault(canonical_json(sections), []).append(
+                (first or budget + 1, key, item)
+            )
+    return sorted((min(runs)[2] for runs in candidates.values()), key=lambda item: item.name)
+
+
+def _first_inserted_mean(rollouts: Path) -> int | None:
+    """The first iteration whose mean weights inserted in a recorded run, if any."""
+    rows = pd.read_parquet(rollouts, columns=["phase", "iteration", "success"])
+    inserted = rows[(rows["phase"] == "mean") & rows["success"].astype(bool)]
+    return int(inserted["iteration"].min()) if len(inserted) else None
+
+
+def tree_hash(tree: Path) -> str:
+    """The rollout hash a code tree's own hash function gives for itself, computed in a process
+    that loads that tree's library (checked by where it loaded from)."""
+    result = subprocess.run(
+        [sys.executable, "-c", HASH_OF_TREE],
+        env=_environment(tree),
+        cwd=tree,
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+    )
+    if result.returncode:
+        raise ValueError(f"{tree}: its rollout hash cannot be computed ({result.stderr.strip()})")
+    loaded, digest = result.stdout.split()
+    if not Path(loaded).resolve().is_relative_to((tree / "src").resolve()):
+        raise ValueError(f"{tree}: another library loaded ({loaded})")
+    return digest
+
+
+def _environment(tree: Path) -> dict[str, str]:
+    """This process's environment with ``tree``'s library first on the path."""
+    return {**os.environ, "PYTHONPATH": str(tree / "src"), "PYTHONNOUSERSITE": "1"}
+
+
+def extract(repository: Path, commit: str, into: Path) -> Path:
+    """The code of ``commit`` (:data:`TREE_FILES`), written under ``into`` with ``git archive``
+    (which leaves nothing in ``.git``); None-like error when the history does not hold it."""
+    archive = subprocess.run(
+        ["git", "archive", "--format=tar", commit, *TREE_FILES],
+        cwd=repository,
+        capture_output=True,
+        check=False,
+        timeout=120,
+    )
+    if archive.returncode:
+        raise LookupError(f"{commit}: not in {repository}'s history")
+    tree = into / commit
+    with tarfile.open(fileobj=io.BytesIO(archive.stdout)) as tar:
+        tar.extractall(tree, filter="data")
+    return tree
+
+
+def commit_of(
+    made_at: str, candidates: Iterable[str], repository: Path, into: Path
+) -> tuple[str, Path]:
+    """The first of ``candidates`` (commits, ``-dirty`` dropped) whose own code and hash
+    function give ``made_at``, and its extracted tree; one line when none does."""
+    tried = []
+    for commit in dict.fromkeys(c.removesuffix("-dirty") for c in candidates if c):
+        try:
+            tree = extract(repository, commit, into)
+            if tree_hash(tree) == made_at:
+                return commit, tree
+        except (LookupError, ValueError):
+            pass
+        tried.append(commit)
+    raise ValueError(
+        f"rollout hash {made_at[:12]}: no commit in history gives it (tried {', '.join(tried)})"
+    )
+
+
+def run_item(tree: Path, item: Item, workdir: Path) -> dict[str, Path]:
+    """Run ``item`` through ``tree``'s own workflow in ``workdir``: its outputs by name."""
+    workdir.mkdir(parents=True)
+    override = {
+        "sweep": {key: [level] for key, level in item.point.items()},
+        "planner": {"iterations": item.iterations},
+    }
+    (workdir / "verify.yaml").write_text(json.dumps(override))  # YAML reads JSON
+    run = workdir / "results" / "planning" / item.run
+    command = [
+        sys.executable,
+        "-m",
+        "snakemake",
+        "-j1",
+        "-s",
+        str(tree / "Snakefile"),
+        "-d",
+        str(workdir),
+        "--configfile",
+        *(str(tree / f) for f in item.config_files),
+        str(workdir / "verify.yaml"),
+        "--",
+        *(str(run.relative_to(workdir) / name) for name in item.outputs),
+    ]
+    result = subprocess.run(
+        command,
+        env=_environment(tree),
+        cwd=workdir,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if result.returncode:
+        tail = " | ".join(result.stderr.strip().splitlines()[-3:])
+        raise RuntimeError(f"{item.name}: the workflow of {tree.name} failed: {tail}")
+    return {name: run / name for name in item.outputs}
+
+
+def column_digests(path: Path) -> dict[str, str]:
+    """sha256 of each column's data, bit for bit (NaNs by their bits), without the schema's
+    metadata (the provenance and timings)."""
+    table = pq.read_table(path).replace_schema_metadata(None).combine_chunks()
+    digests = {}
+    for name in table.column_names:
+        sink = pa.BufferOutputStream()
+        column = table.select([name])
+        with pa.ipc.new_stream(sink, column.schema) as writer:
+            writer.write_table(column)
+        digests[name] = hashlib.sha256(sink.getvalue().to_pybytes()).hexdigest()
+    return digests
+
+
+def compare_outputs(old: Mapping[str, Path], new: Mapping[str, Path]) -> tuple[str, list[str]]:
+    """The new outputs' digest and, where they differ from the old, the first column of each
+    file that does."""
+    digest, differences = hashlib.sha256(), []
+    for name in old:
+        before, after = column_digests(old[name]), column_digests(new[name])
+        for column in before.keys() | after.keys():
+            digest.update(f"{name}:{column}:{after.get(column)}".encode())
+        changed = [c for c in before if before[c] != after.get(c)]
+        changed += [c for c in after if c not in before]
+        if changed:
+            differences.append(f"{name}: column {changed[0]} differs")
+    return digest.hexdigest(), differences
+
+
+def verify_hash(
+    made_at: str,
+    candidates: Sequence[str],
+    items: Sequence[Item],
+    repository: Path,
+    today: str,
+    progress: Callable[[str], None] = print,
+) -> Verification:
+    """Run ``items`` at the commit that made ``made_at`` and at the repository's tree (today's
+    code, hash ``today``), side by side, and compare every output."""
+    result = Verification(made_at, today)
+    with tempfile.TemporaryDirectory(prefix="pih-verify-") as scratch:
+        scratch = Path(scratch)
+        result.from_commit, old_tree = commit_of(made_at, candidates, repository, scratch / "code")
+        progress(f"rollout hash {made_at[:12]} -> {today[:12]}: {result.from_commit} against today")
+        versions = {"old": (old_tree, made_at), "new": (repository, today)}
+        with concurrent.futures.ThreadPoolExecutor(2) as pool:
+            for number, item in enumerate(items, 1):
+                futures = {
+                    label: pool.submit(run_item, tree, item, scratch / label / str(number))
+                    for label, (tree, _) in versions.items()
+                }
+                outputs = {label: future.result() for label, future in futures.items()}
+                for label, (tree, expected) in versions.items():
+                    loaded = read_provenance_of(outputs[label]["rollouts.parquet"])
+                    if loaded["rollout_code_sha256"] != expected:
+                        raise RuntimeError(f"{item.name}: the {label} run loaded other code")
+                digest, differences = compare_outputs(outputs["old"], outputs["new"])
+                result.digests[item.name] = digest
+                result.differences += [f"{item.name}: {d}" for d in differences]
+                verdict = "identical" if not differences else "; ".join(differences)
+                progress(
+                    f"[{number}/{len(items)}] {item.name} ({item.run}, {item.iterations} "
+                    f"iterations): {verdict}"
+                )
+    return result
+
+
+def record_row(verification: Verification, items: Sequence[Item], to_commit: str) -> dict:
+    """The equivalence record's row for a verification that found no difference."""
+    return {
+        "from_rollout_code_sha256": verification.from_hash,
+        "to_rollout_code_sha256": verification.to_hash,
+        "from_commit": verification.from_commit,
+        "to_commit": to_commit,
+        "items": json.dumps(
+            [
+                {
+                    "item": item.name,
+                    "config_files": list(item.config_files),
+                    "run": item.run,
+                    "iterations": item.iterations,
+                    "sha256": verification.digests[item.name],
+                }
+                for item in items
+            ]
+        ),
+        "cpu": machine()["cpu"],
+        "python": sys.version.split()[0],
+        "drake": package_versions()["drake"],
+        "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+    }
+
+
+def verify(
+    studies: Sequence[Study],
+    repository: Path,
+    record: Path,
+    progress: Callable[[str], None] = print,
+) -> list[Verification]:
+    """Verify today's code (the tree at ``repository``) against the code each published run's
+    hash chains to in ``record`` (:func:`pih.study.equivalence.chained`), once per such hash;
+    when every item of every verification is identical, add one row per hash to ``record``
+    and nothing otherwise. Bad input (no runs, a damaged file or record, a hash no commit
+    gives) is refused in one line before anything runs."""
+    from pih.study.equivalence import add_row, chained, read_record
+
+    made = [read_provenance_of(path) for path in run_files(studies, repository)]
+    rows = read_record(record)
+    today = tree_hash(repository)
+    candidates: dict[str, list[str]] = {}
+    for provenance in sorted(made, key=lambda p: p["created_utc"], reverse=True):
+        head = chained(provenance["rollout_code_sha256"], record)
+        if head == today:
+            continue
+        commits = candidates.setdefault(
+            head, list(rows.loc[rows["to_rollout_code_sha256"] == head, "to_commit"][::-1])
+        )
+        if provenance["rollout_code_sha256"] == head:
+            commits.append(provenance["code_version"])
+    if not candidates:
+        progress(f"current: {len(made)} files made at rollout hashes that chain to today's")
+        return []
+    items = suite(studies, repository)
+    verifications = [
+        verify_hash(head, commits, items, repository, today, progress)
+        for head, commits in candidates.items()
+    ]
+    if not any(v.differences for v in verifications):
+        for verification in verifications:
+            add_row(record_row(verification, items, _describe(repository)), record)
+    return verifications
+
+
+def _describe(repository: Path) -> str:
+    """``git describe --always --dirty`` of the repository."""
+    return (
+        subprocess.run(
+            ["git", "describe", "--always", "--dirty"],
+            cwd=repository,
+            capture_output=True,
+            text=True,
+            check=False,
+            timeout=30,
+        ).stdout.strip()
+        or "unknown"
+    )
