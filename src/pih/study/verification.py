@@ -198,7 +198,7 @@ def _environment(tree: Path) -> dict[str, str]:
 
 def extract(repository: Path, commit: str, into: Path) -> Path:
     """The code of ``commit`` (:data:`TREE_FILES`), written under ``into`` with ``git archive``
-    (which leaves nothing in ``.git``); None-like error when the history does not hold it."""
+    (which leaves nothing in ``.git``); LookupError when the history does not hold it."""
     archive = subprocess.run(
         ["git", "archive", "--format=tar", commit, *TREE_FILES],
         cwd=repository,
@@ -302,39 +302,40 @@ def compare_outputs(old: Mapping[str, Path], new: Mapping[str, Path]) -> tuple[s
 
 def verify_hash(
     made_at: str,
-    candidates: Sequence[str],
+    old: tuple[str, Path],
     items: Sequence[Item],
     repository: Path,
     today: str,
+    scratch: Path,
     progress: Callable[[str], None] = print,
 ) -> Verification:
-    """Run ``items`` at the commit that made ``made_at`` and at the repository's tree (today's
-    code, hash ``today``), side by side, and compare every output."""
-    result = Verification(made_at, today)
-    with tempfile.TemporaryDirectory(prefix="pih-verify-") as scratch:
-        scratch = Path(scratch)
-        result.from_commit, old_tree = commit_of(made_at, candidates, repository, scratch / "code")
-        progress(f"rollout hash {made_at[:12]} -> {today[:12]}: {result.from_commit} against today")
-        versions = {"old": (old_tree, made_at), "new": (repository, today)}
-        with concurrent.futures.ThreadPoolExecutor(2) as pool:
-            for number, item in enumerate(items, 1):
-                futures = {
-                    label: pool.submit(run_item, tree, item, scratch / label / str(number))
-                    for label, (tree, _) in versions.items()
-                }
-                outputs = {label: future.result() for label, future in futures.items()}
-                for label, (tree, expected) in versions.items():
-                    loaded = read_provenance_of(outputs[label]["rollouts.parquet"])
-                    if loaded["rollout_code_sha256"] != expected:
-                        raise RuntimeError(f"{item.name}: the {label} run loaded other code")
-                digest, differences = compare_outputs(outputs["old"], outputs["new"])
-                result.digests[item.name] = digest
-                result.differences += [f"{item.name}: {d}" for d in differences]
-                verdict = "identical" if not differences else "; ".join(differences)
-                progress(
-                    f"[{number}/{len(items)}] {item.name} ({item.run}, {item.iterations} "
-                    f"iterations): {verdict}"
+    """Run ``items`` through the ``old`` code (its commit and extracted tree, hash ``made_at``)
+    and through the repository's tree (today's code, hash ``today``), side by side, in
+    ``scratch``, and compare every output."""
+    result = Verification(made_at, today, old[0])
+    progress(f"rollout hash {made_at[:12]} ({old[0]}) -> {today[:12]} (today): {len(items)} items")
+    versions = {"old": (old[1], made_at), "new": (repository, today)}
+    with concurrent.futures.ThreadPoolExecutor(2) as pool:
+        for number, item in enumerate(items, 1):
+            futures = {
+                label: pool.submit(
+                    run_item, tree, item, scratch / made_at[:12] / label / str(number)
                 )
+                for label, (tree, _) in versions.items()
+            }
+            outputs = {label: future.result() for label, future in futures.items()}
+            for label, (_, expected) in versions.items():
+                loaded = read_provenance_of(outputs[label]["rollouts.parquet"])
+                if loaded["rollout_code_sha256"] != expected:
+                    raise RuntimeError(f"{item.name}: the {label} code's run loaded other code")
+            digest, differences = compare_outputs(outputs["old"], outputs["new"])
+            result.digests[item.name] = digest
+            result.differences += [f"{item.name}: {d}" for d in differences]
+            verdict = "identical" if not differences else "; ".join(differences)
+            progress(
+                f"[{number}/{len(items)}] {item.name} ({item.run}, {item.iterations} "
+                f"iterations): {verdict}"
+            )
     return result
 
 
@@ -393,11 +394,17 @@ def verify(
     if not candidates:
         progress(f"current: {len(made)} files made at rollout hashes that chain to today's")
         return []
-    items = suite(studies, repository)
-    verifications = [
-        verify_hash(head, commits, items, repository, today, progress)
-        for head, commits in candidates.items()
-    ]
+    with tempfile.TemporaryDirectory(prefix="pih-verify-") as scratch:
+        scratch = Path(scratch)
+        code = {
+            head: commit_of(head, commits, repository, scratch / "code")
+            for head, commits in candidates.items()
+        }
+        items = suite(studies, repository)
+        verifications = [
+            verify_hash(head, code[head], items, repository, today, scratch, progress)
+            for head in candidates
+        ]
     if not any(v.differences for v in verifications):
         for verification in verifications:
             add_row(record_row(verification, items, _describe(repository)), record)

@@ -1,0 +1,347 @@
+"""Published results stay current by code equivalence: the equivalence record (rows chain, a row
+for another hash counts for nothing), recorded configs read through today's schema, the
+validation's own code hash, and ``pih verify`` end to end in a temporary repository."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from pih.__main__ import main
+from pih.records.outputs import write_table
+from pih.records.provenance import (
+    VALIDATION_MODULES,
+    imported_library_modules,
+    module_path,
+    modules_hash,
+    record,
+    rollout_code_hash,
+    validation_code_hash,
+)
+from pih.study.equivalence import add_row, chained, current_hashes, read_record
+from pih.study.published import (
+    PUBLISHED_DIR,
+    expected_runs,
+    expected_validation,
+    run_stale_reasons,
+    stale_reasons,
+    validation_stale_reasons,
+)
+from pih.study.verification import Study, column_digests, compare_outputs, verify
+
+ROOT = Path(__file__).resolve().parents[1]
+GIT = ["git", "-c", "user.name=pih test", "-c", "user.email=pih@localhost"]
+
+
+def _row(source: str, target: str, commit: str = "abc1234") -> dict[str, str]:
+    return {
+        "from_rollout_code_sha256": source,
+        "to_rollout_code_sha256": target,
+        "from_commit": commit,
+        "to_commit": commit,
+        "items": "[]",
+        "cpu": "test",
+        "python": "3",
+        "drake": "1",
+        "created_utc": "2026-12-07T00:00:00+00:00",
+    }
+
+
+def test_rows_chain_and_a_row_for_other_hashes_counts_for_nothing(tmp_path):
+    path = tmp_path / "equivalence.parquet"
+    assert current_hashes("h3", path) == {"h3"}  # no record: only today's hash
+    for source, target in (("h1", "h2"), ("h2", "h3"), ("x", "y")):
+        add_row(_row(source, target), path)
+    assert len(read_record(path)) == 3
+    assert current_hashes("h3", path) == {"h1", "h2", "h3"}
+    assert current_hashes("h2", path) == {"h1", "h2"}
+    assert current_hashes("y", path) == {"x", "y"}
+    assert chained("h1", path) == "h3" and chained("x", path) == "y" and chained("h9", path) == "h9"
+
+
+def test_a_truncated_record_gets_one_line(tmp_path, monkeypatch, capsys):
+    path = tmp_path / "equivalence.parquet"
+    add_row(_row("h1", "h2"), path)
+    path.write_bytes(path.read_bytes()[:100])
+    with pytest.raises(ValueError, match="equivalence.parquet: not a readable equivalence record"):
+        current_hashes("h2", path)
+    # pih verify refuses it in one line before running anything.
+    monkeypatch.setattr("pih.study.equivalence.RECORD", path)
+    assert main(["verify", str(ROOT / PUBLISHED_DIR)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a readable equivalence record" in err[0], err
+
+
+def _published_run(tmp_path: Path, made_at: str, sections: dict) -> Path:
+    """A one-run study made at rollout hash ``made_at``, its config ``sections``."""
+    provenance = record("plan", point={"s": 0}, config=sections)
+    provenance["rollout_code_sha256"] = made_at
+    path = tmp_path / "planning" / "s~0" / "rollouts.parquet"
+    rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
+    write_table(rows, path, provenance, {"phase": ("", "phase"), "success": ("1", "inserted")})
+    return path
+
+
+def _sections() -> dict:
+    from pih.config import to_mapping
+    from pih.planning.config import PlannerConfig
+    from pih.scene.config import SceneConfig
+
+    return {"scene": to_mapping(SceneConfig()), "planner": to_mapping(PlannerConfig())}
+
+
+def test_a_run_at_a_verified_hash_is_current_and_at_another_is_not(tmp_path):
+    sections = _sections()
+    _published_run(tmp_path, "h1", sections)
+    expected = {json.dumps({"s": 0}, separators=(",", ":")): sections}
+    record_path = tmp_path / "equivalence.parquet"
+    stale = ["planning/s~0/rollouts.parquet: made by other rollout code"]
+    assert stale_reasons(tmp_path, expected, current_hashes("today", record_path)) == stale
+    add_row(_row("h0", "today"), record_path)  # another hash: ignored
+    add_row(_row("h1", "h2"), record_path)  # a chain that does not reach today: ignored
+    assert stale_reasons(tmp_path, expected, current_hashes("today", record_path)) == stale
+    add_row(_row("h2", "today"), record_path)
+    assert stale_reasons(tmp_path, expected, current_hashes("today", record_path)) == []
+
+
+def test_a_recorded_config_reads_through_todays_schema(tmp_path):
+    """A key the run predates counts at its default; a changed value and a key today's schema
+    no longer has are reasons, not crashes."""
+    sections = _sections()
+    older = json.loads(json.dumps(sections))
+    del older["planner"]["convergence_tolerance"], older["scene"]["solver"]["retry_time_step_s"]
+    path = _published_run(tmp_path, rollout_code_hash(), older)
+    current = {rollout_code_hash()}
+    assert run_stale_reasons(path, sections, tmp_path, current) == []
+    changed = json.loads(json.dumps(sections))
+    changed["planner"]["convergence_tolerance"] = 0.5
+    assert run_stale_reasons(path, changed, tmp_path, current) == [
+        "s~0: its planner config differs in convergence_tolerance"
+    ]
+    removed = json.loads(json.dumps(sections))
+    removed["planner"]["a_key_since_removed"] = 1
+    path = _published_run(tmp_path, rollout_code_hash(), removed)
+    [reason] = run_stale_reasons(path, sections, tmp_path, current)
+    assert reason.startswith("s~0: its planner config no longer reads:"), reason
+    assert "a_key_since_removed" in reason
+
+
+def test_a_mapping_valued_key_is_not_merged_with_its_default():
+    """``validation.variants`` (default: three variants) recorded with one stays one."""
+    from pih.config import with_defaults
+    from pih.study.config import ValidationSection
+
+    filled = with_defaults(ValidationSection, {"variants": {"hydroelastic": {}}})
+    assert filled["variants"] == {"hydroelastic": {}}
+    assert filled["offsets_m"] == list(ValidationSection().offsets_m)
+
+
+def test_the_validation_hash_covers_what_the_experiment_computes_with():
+    bookkeeping = {"config", "records.outputs", "records.provenance"}
+    used = {
+        name
+        for name in imported_library_modules(module_path("validation.experiment"))
+        if not name.endswith("__init__") and name not in bookkeeping
+    }
+    assert used <= {*VALIDATION_MODULES}, used - set(VALIDATION_MODULES)
+    assert "validation.experiment" in VALIDATION_MODULES
+
+
+def test_a_changed_validation_statement_stales_the_published_validation():
+    """The published validation predates its hash: it is judged by the validation modules at the
+    commit that made it, read from git, which equal today's; one changed statement in the
+    experiment gives another hash and stales it, a reworded docstring does not."""
+    published = ROOT / PUBLISHED_DIR
+    sections = expected_validation((str(ROOT / "config" / "config.yaml"),))
+    assert validation_stale_reasons(published, sections) == []
+    experiment = module_path("validation.experiment").read_text()
+    assert "return params\n" in experiment
+
+    def edited(old: str, new: str):
+        return lambda name: (
+            module_path(name).read_text().replace(old, new, 1)
+            if name == "validation.experiment"
+            else module_path(name).read_text()
+        )
+
+    docstring = modules_hash(VALIDATION_MODULES, edited('"""', '"""Reworded. '))
+    assert docstring == validation_code_hash()
+    statement = modules_hash(VALIDATION_MODULES, edited("return params\n", "return 1 * params\n"))
+    assert statement != validation_code_hash()
+    assert validation_stale_reasons(published, sections, code_sha256=statement) == [
+        "validation/comparison.parquet: made by other validation code",
+        "validation/variants.parquet: made by other validation code",
+    ]
+
+
+def test_outputs_are_compared_bit_for_bit_column_by_column(tmp_path):
+    units = {"cost": ("1", "cost"), "status": ("", "status")}
+    old, new = tmp_path / "old.parquet", tmp_path / "new.parquet"
+    frame = pd.DataFrame({"cost": [1.0, float("nan")], "status": ["ok", "diverged"]})
+    write_table(frame, old, record("plan"), units)
+    write_table(frame, new, record("plan"), units)  # other provenance, same data
+    assert compare_outputs({"r": old}, {"r": new})[1] == []
+    frame["cost"] = frame["cost"] * (1 + 1e-12)
+    write_table(frame, new, record("plan"), units)
+    assert compare_outputs({"r": old}, {"r": new})[1] == ["r: column cost differs"]
+    assert column_digests(old)["status"] == column_digests(new)["status"]
+
+
+def test_pih_verify_refuses_bad_input_in_one_line(tmp_path, capsys):
+    empty = tmp_path / "paper"
+    empty.mkdir()
+    assert main(["verify", str(empty)]) == 1
+    assert capsys.readouterr().err.strip() == (
+        f"pih verify: {empty}: no planning runs (planning/*/rollouts.parquet)"
+    )
+    assert main(["verify", str(tmp_path)]) == 1
+    assert "not a published study" in capsys.readouterr().err
+    # A damaged run file is named.
+    run = empty / "planning" / "s~0" / "rollouts.parquet"
+    run.parent.mkdir(parents=True)
+    run.write_bytes(b"PAR1 truncated")
+    assert main(["verify", str(empty)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{run}: not a readable output" in err[0], err
+
+
+def test_a_hash_no_commit_gives_is_refused_in_one_line(tmp_path):
+    sections = _sections()
+    path = _published_run(tmp_path / "published" / "one", "f" * 64, sections)
+    provenance_commit = "0000000"
+    from pih.records.outputs import read_provenance
+
+    made = read_provenance(path)
+    made["code_version"] = provenance_commit
+    rows = pd.read_parquet(path)
+    write_table(rows, path, made, {"phase": ("", "phase"), "success": ("1", "inserted")})
+    study = Study(tmp_path / "published" / "one", ("config/config.yaml",))
+    record_path = tmp_path / "equivalence.parquet"
+    with pytest.raises(ValueError, match=r"rollout hash ffffffffffff: no commit in history gives"):
+        verify([study], ROOT, record_path, progress=lambda line: None)
+    assert not record_path.exists()
+
+
+# End to end: a repository of its own, a tiny published study made by its first commit.
+
+TINY = """\
+planner: {iterations: 3, goal: deepest_explored}
+sweep:
+  planner.start_x_m: [-0.035]
+  planner.goal: [deepest_explored]
+  planner.seed: [0]
+robustness: {start_std_m: [0.001], model_error: {}}
+"""
+
+
+def _git(repository: Path, *args: str) -> str:
+    result = subprocess.run(
+        [*GIT, *args], cwd=repository, capture_output=True, text=True, check=False
+    )
+    assert result.returncode == 0, result.stderr
+    return result.stdout.strip()
+
+
+def _edit(path: Path, old: str, new: str) -> None:
+    text = path.read_text()
+    assert text.count(old) == 1, old
+    path.write_text(text.replace(old, new))
+
+
+@pytest.mark.slow
+def test_pih_verify_makes_an_unused_function_current_and_names_a_changed_cost(tmp_path):
+    repository = tmp_path / "repo"
+    for name in ("workflow", "config", "src"):
+        ignored = shutil.ignore_patterns("*.egg-info", "__pycache__")
+        shutil.copytree(ROOT / name, repository / name, ignore=ignored)
+    for name in ("Snakefile", ".gitignore"):
+        shutil.copy2(ROOT / name, repository / name)
+    (repository / "config" / "tiny.yaml").write_text(TINY)
+    _git(repository, "init", "-q")
+    _git(repository, "add", "-A")
+    _git(repository, "commit", "-qm", "made the study")
+    # The tiny study, made by the first commit's workflow, published.
+    env = {**os.environ, "PYTHONPATH": str(repository / "src")}
+    config = ["config/config.yaml", "config/smoke.yaml", "config/tiny.yaml"]
+    run = "results/planning/start_x_m~-0.035_goal~deepest_explored_seed~0"
+    made = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "snakemake",
+            "-j2",
+            "--configfile",
+            *config,
+            "--",
+            f"{run}/rollouts.parquet",
+            f"{run}/redeploy_start_std_m~0.001.parquet",
+        ],
+        cwd=repository,
+        env=env,
+        check=False,
+        capture_output=True,
+        text=True,
+    )
+    assert made.returncode == 0, made.stderr[-2000:]
+    published = repository / "published" / "tiny" / "planning"
+    shutil.copytree(
+        repository / run,
+        published / Path(run).name,
+        ignore=shutil.ignore_patterns("*.rrd", "best_paths.parquet"),
+    )
+    study = Study(repository / "published" / "tiny", tuple(config))
+    record_path = repository / "published" / "equivalence.parquet"
+    files = tuple(str(repository / f) for f in config)
+
+    def stale() -> list[str]:
+        from pih.study.verification import tree_hash
+
+        current = current_hashes(tree_hash(repository), record_path)
+        return stale_reasons(study.directory, expected_runs(files), current)
+
+    # An unused function in the planner moves the hash: the run is stale, then verified current.
+    planner = repository / "src" / "pih" / "planning" / "planner.py"
+    planner.write_text(planner.read_text() + "\n\ndef _unused() -> int:\n    return 1\n")
+    _git(repository, "add", "-A")
+    _git(repository, "commit", "-qm", "an unused function")
+    assert stale() == [
+        f"{Path(run).name}/rollouts.parquet: made by other rollout code",
+        f"{Path(run).name}/redeploy_start_std_m~0.001.parquet: made by other rollout code",
+    ]
+    lines: list[str] = []
+    [verification] = verify([study], repository, record_path, progress=lines.append)
+    assert verification.differences == [], lines
+    assert "identical" in lines[-1] and "deepest_explored, true_hole" in lines[-1], lines
+    assert stale() == []
+    [row] = read_record(record_path).to_dict("records")
+    assert row["from_commit"] == _git(repository, "rev-parse", "--short", "HEAD~1")
+    assert json.loads(row["items"])[0]["iterations"] >= 2
+    # Nothing left behind: the record is the only new file, .git holds no worktree.
+    assert _git(repository, "status", "--porcelain", "--untracked-files=all") == (
+        "?? published/equivalence.parquet"
+    )
+    assert _git(repository, "worktree", "list").count("\n") == 0
+    # Cost totals x (1 + 1e-12): verify names the cost column and records nothing.
+    _git(repository, "add", "-A")
+    _git(repository, "commit", "-qm", "verified")
+    _edit(
+        repository / "src" / "pih" / "planning" / "costs.py",
+        "return np.sum(values / self.divisors, axis=1)",
+        "return np.sum(values / self.divisors, axis=1) * (1 + 1e-12)",
+    )
+    lines.clear()
+    [verification] = verify([study], repository, record_path, progress=lines.append)
+    assert verification.from_commit == _git(repository, "rev-parse", "--short", "HEAD~1")
+    assert (
+        verification.differences[0]
+        == "deepest_explored, true_hole: rollouts.parquet: column cost differs"
+    ), verification.differences
+    assert len(read_record(record_path)) == 1
+    assert stale() != []
