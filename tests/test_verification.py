@@ -312,8 +312,8 @@ def test_pih_verify_makes_an_unused_function_current_and_names_a_changed_cost(tm
     _git(repository, "add", "-A")
     _git(repository, "commit", "-qm", "an unused function")
     assert stale() == [
-        f"{Path(run).name}/rollouts.parquet: made by other rollout code",
-        f"{Path(run).name}/redeploy_start_std_m~0.001.parquet: made by other rollout code",
+        f"{run.removeprefix('results/')}/{name}: made by other rollout code"
+        for name in ("rollouts.parquet", "redeploy_start_std_m~0.001.parquet")
     ]
     lines: list[str] = []
     [verification] = verify([study], repository, record_path, progress=lines.append)
@@ -338,7 +338,8 @@ def test_pih_verify_makes_an_unused_function_current_and_names_a_changed_cost(tm
     )
     lines.clear()
     [verification] = verify([study], repository, record_path, progress=lines.append)
-    assert verification.from_commit == _git(repository, "rev-parse", "--short", "HEAD~1")
+    # The runs chain to the verified hash, whose code is the commit that added the record's row.
+    assert verification.from_commit == _git(repository, "rev-parse", "--short", "HEAD")
     assert (
         verification.differences[0]
         == "deepest_explored, true_hole: rollouts.parquet: column cost differs"

@@ -36,17 +36,7 @@ from pih.records.provenance import canonical_json, machine, package_versions
 
 TREE_FILES = ("Snakefile", "workflow", "config", "src")
 """What one version of the code is: its workflow, its config files and its library."""
-HASH_OF_TREE = (
-    "import importlib, sys\n"
-    "for name in ('pih.records.provenance', 'pih.provenance'):\n"
-    "    try:\n"
-    "        module = importlib.import_module(name)\n"
-    "    except ImportError:\n"
-    "        continue\n"
-    "    print(module.__file__, module.rollout_code_hash())\n"
-    "    sys.exit(0)\n"
-    "sys.exit('no rollout_code_hash in this tree')\n"
-)
+HASH_OF_TREE = "import pih.records.provenance as p; print(p.__file__, p.rollout_code_hash())"
 """Run in a tree's own interpreter process: which library loaded, and its own hash of itself."""
 
 
@@ -69,7 +59,7 @@ class Item:
     iterations: int
     """One past the first iteration whose mean inserted in the recorded run."""
     redeployment: str
-    """The offset redeployment's file name."""
+    """The offset redeployment's file name (empty when the study makes none)."""
 
     @property
     def run(self) -> str:
@@ -78,7 +68,7 @@ class Item:
 
     @property
     def outputs(self) -> tuple[str, ...]:
-        return ("rollouts.parquet", "best_paths.parquet", self.redeployment)
+        return tuple(filter(None, ("rollouts.parquet", "best_paths.parquet", self.redeployment)))
 
 
 @dataclass
@@ -120,23 +110,16 @@ def suite(studies: Iterable[Study], root: Path) -> list[Item]:
     """The studies' configurations without their situation levels, deduplicated, each at its
     recorded run whose mean inserted earliest (the shortest that reaches the insertion
     branches)."""
-    from pih.study.config import is_method_key
-    from pih.study.published import (
-        _sweep_keys,
-        expected_redeployments,
-        expected_runs,
-        runs_by_point,
-    )
+    from pih.study.config import is_method_key, load_config
+    from pih.study.published import _sweep_keys, expected_runs, runs_by_point
 
     candidates: dict[str, list[tuple[int, str, Item]]] = {}
     for study in studies:
         files = tuple(str(root / f) for f in study.config_files)
         expected = expected_runs(files)
-        offset = sorted(
-            (name for name in expected_redeployments(files) if "start_std_m~" in name),
-            key=lambda name: float(name.split("~")[1].removesuffix(".parquet")),
-        )
-        offset = [name for name in offset if float(name.split("~")[1][:-8]) > 0] or offset
+        stds = sorted(float(std) for std in load_config(list(files))["robustness"]["start_std_m"])
+        offset = next((std for std in stds if std > 0), stds[0] if stds else None)
+        redeployment = f"redeploy_start_std_m~{offset}.parquet" if offset is not None else ""
         runs = runs_by_point(root / study.directory / "planning", _sweep_keys(expected))
         for key, path in sorted(runs.items()):
             if key not in expected:
@@ -157,7 +140,7 @@ def suite(studies: Iterable[Study], root: Path) -> list[Item]:
             first = _first_inserted_mean(path)
             budget = planner["iterations"]
             iterations = min(budget, first + 1) if first else min(budget, 2)
-            item = Item(name, study.config_files, point, iterations, offset[0] if offset else "")
+            item = Item(name, study.config_files, point, iterations, redeployment)
             candidates.setdefault(canonical_json(sections), []).append(
                 (first or budget + 1, key, item)
             )
@@ -174,21 +157,20 @@ def _first_inserted_mean(rollouts: Path) -> int | None:
 def tree_hash(tree: Path) -> str:
     """The rollout hash a code tree's own hash function gives for itself, computed in a process
     that loads that tree's library (checked by where it loaded from)."""
-    result = subprocess.run(
-        [sys.executable, "-c", HASH_OF_TREE],
-        env=_environment(tree),
-        cwd=tree,
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=120,
-    )
+    result = _child([sys.executable, "-c", HASH_OF_TREE], tree, _environment(tree))
     if result.returncode:
         raise ValueError(f"{tree}: its rollout hash cannot be computed ({result.stderr.strip()})")
     loaded, digest = result.stdout.split()
     if not Path(loaded).resolve().is_relative_to((tree / "src").resolve()):
         raise ValueError(f"{tree}: another library loaded ({loaded})")
     return digest
+
+
+def _child(
+    command: list[str], cwd: Path, env: Mapping[str, str] | None = None, text: bool = True
+) -> subprocess.CompletedProcess:
+    """``command`` run to its end in ``cwd``, its output captured."""
+    return subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=text, check=False)
 
 
 def _environment(tree: Path) -> dict[str, str]:
@@ -199,12 +181,8 @@ def _environment(tree: Path) -> dict[str, str]:
 def extract(repository: Path, commit: str, into: Path) -> Path:
     """The code of ``commit`` (:data:`TREE_FILES`), written under ``into`` with ``git archive``
     (which leaves nothing in ``.git``); LookupError when the history does not hold it."""
-    archive = subprocess.run(
-        ["git", "archive", "--format=tar", commit, *TREE_FILES],
-        cwd=repository,
-        capture_output=True,
-        check=False,
-        timeout=120,
+    archive = _child(
+        ["git", "archive", "--format=tar", commit, *TREE_FILES], repository, text=False
     )
     if archive.returncode:
         raise LookupError(f"{commit}: not in {repository}'s history")
@@ -257,14 +235,7 @@ def run_item(tree: Path, item: Item, workdir: Path) -> dict[str, Path]:
         "--",
         *(str(run.relative_to(workdir) / name) for name in item.outputs),
     ]
-    result = subprocess.run(
-        command,
-        env=_environment(tree),
-        cwd=workdir,
-        capture_output=True,
-        text=True,
-        check=False,
-    )
+    result = _child(command, workdir, _environment(tree))
     if result.returncode:
         tail = " | ".join(result.stderr.strip().splitlines()[-3:])
         raise RuntimeError(f"{item.name}: the workflow of {tree.name} failed: {tail}")
@@ -386,9 +357,10 @@ def verify(
         head = chained(provenance["rollout_code_sha256"], record)
         if head == today:
             continue
-        commits = candidates.setdefault(
-            head, list(rows.loc[rows["to_rollout_code_sha256"] == head, "to_commit"][::-1])
-        )
+        # The code a row verified is the commit that added the row, or the one it names (which
+        # is the code verified only when it was clean).
+        named = list(rows.loc[rows["to_rollout_code_sha256"] == head, "to_commit"][::-1])
+        commits = candidates.setdefault(head, [*_commits_of(record, repository), *named])
         if provenance["rollout_code_sha256"] == head:
             commits.append(provenance["code_version"])
     if not candidates:
@@ -411,16 +383,14 @@ def verify(
     return verifications
 
 
+def _commits_of(path: Path, repository: Path) -> list[str]:
+    """The commits that changed ``path``, the newest first."""
+    log = _child(["git", "log", "--format=%h", "--", str(path)], repository)
+    return log.stdout.split() if not log.returncode else []
+
+
 def _describe(repository: Path) -> str:
     """``git describe --always --dirty`` of the repository."""
     return (
-        subprocess.run(
-            ["git", "describe", "--always", "--dirty"],
-            cwd=repository,
-            capture_output=True,
-            text=True,
-            check=False,
-            timeout=30,
-        ).stdout.strip()
-        or "unknown"
+        _child(["git", "describe", "--always", "--dirty"], repository).stdout.strip() or "unknown"
     )
