@@ -194,6 +194,27 @@ def test_outputs_are_compared_bit_for_bit_column_by_column(tmp_path):
     assert column_digests(old)["status"] == column_digests(new)["status"]
 
 
+def test_the_suite_is_the_published_configurations_without_start_and_seed():
+    """3 methods x {the real hole, the sensed hole per run}, each at the recorded run whose mean
+    inserted earliest, one iteration past that."""
+    from pih.study.published import PUBLISHED_STUDIES
+    from pih.study.verification import suite
+
+    studies = [Study(s.directory, s.config_files) for s in PUBLISHED_STUDIES.values()]
+    items = suite(studies, ROOT)
+    assert [item.name for item in items] == [
+        f"{goal}, {hole}"
+        for goal in ("deepest_explored", "explored_argmin", "sensed_hole")
+        for hole in ("sensed_per_run", "true_hole")
+    ]
+    for item in items:
+        [path] = (ROOT / "published").glob(f"*/planning/{item.recorded}/rollouts.parquet")
+        rollouts = pd.read_parquet(path)
+        means = rollouts[(rollouts["phase"] == "mean") & rollouts["success"]]
+        assert item.iterations == means["iteration"].min() + 1 < 50, item
+        assert item.outputs[-1] == "redeploy_start_std_m~0.001.parquet"
+
+
 def test_pih_verify_refuses_bad_input_in_one_line(tmp_path, capsys):
     empty = tmp_path / "paper"
     empty.mkdir()
@@ -212,21 +233,45 @@ def test_pih_verify_refuses_bad_input_in_one_line(tmp_path, capsys):
     assert len(err) == 1 and f"{run}: not a readable output" in err[0], err
 
 
-def test_a_hash_no_commit_gives_is_refused_in_one_line(tmp_path):
-    sections = _sections()
-    path = _published_run(tmp_path / "published" / "one", "f" * 64, sections)
-    provenance_commit = "0000000"
+def _study_made_at(tmp_path: Path, made_at: str, commit: str) -> Study:
+    """A one-run study (its point not one of the config's) made at ``made_at`` by ``commit``."""
     from pih.records.outputs import read_provenance
 
+    path = _published_run(tmp_path / "published" / "one", made_at, _sections())
     made = read_provenance(path)
-    made["code_version"] = provenance_commit
+    made["code_version"] = commit
     rows = pd.read_parquet(path)
     write_table(rows, path, made, {"phase": ("", "phase"), "success": ("1", "inserted")})
-    study = Study(tmp_path / "published" / "one", ("config/config.yaml",))
+    return Study(tmp_path / "published" / "one", ("config/config.yaml",))
+
+
+def _published_studies() -> list[Study]:
+    from pih.study.published import PUBLISHED_STUDIES
+
+    return [Study(s.directory, s.config_files) for s in PUBLISHED_STUDIES.values()]
+
+
+def test_a_hash_no_commit_gives_is_refused_in_one_line(tmp_path):
+    study = _study_made_at(tmp_path, "f" * 64, "0000000")
     record_path = tmp_path / "equivalence.parquet"
     with pytest.raises(ValueError, match=r"rollout hash ffffffffffff: no commit in history gives"):
-        verify([study], ROOT, record_path, progress=lambda line: None)
+        verify([study], ROOT, record_path, lambda line: None, _published_studies())
     assert not record_path.exists()
+    # The suite is the config's: a study with no run at its sweep points has none.
+    with pytest.raises(ValueError, match="the suite is empty"):
+        verify([study], ROOT, record_path, lambda line: None)
+
+
+def test_a_current_run_is_not_verified_again_when_the_record_goes_on(tmp_path):
+    """Runs at today's hash are current even where the record leads on from it (a change
+    verified, then reverted): nothing runs, nothing is written."""
+    study = _study_made_at(tmp_path, rollout_code_hash(), "0000000")
+    record_path = tmp_path / "equivalence.parquet"
+    add_row(_row(rollout_code_hash(), "later"), record_path)
+    lines: list[str] = []
+    assert verify([study], ROOT, record_path, lines.append, _published_studies()) == []
+    assert lines == ["current: 1 files made at rollout hashes that chain to today's"]
+    assert len(read_record(record_path)) == 1
 
 
 # End to end: a repository of its own, a tiny published study made by its first commit.
@@ -277,8 +322,10 @@ def test_pih_verify_makes_an_unused_function_current_and_names_a_changed_cost(tm
             "-m",
             "snakemake",
             "-j2",
+            "-d",
+            str(tmp_path / "study"),  # outside the repository: what verify leaves there shows
             "--configfile",
-            *config,
+            *(str(repository / f) for f in config),
             "--",
             f"{run}/rollouts.parquet",
             f"{run}/redeploy_start_std_m~0.001.parquet",
@@ -292,7 +339,7 @@ def test_pih_verify_makes_an_unused_function_current_and_names_a_changed_cost(tm
     assert made.returncode == 0, made.stderr[-2000:]
     published = repository / "published" / "tiny" / "planning"
     shutil.copytree(
-        repository / run,
+        tmp_path / "study" / run,
         published / Path(run).name,
         ignore=shutil.ignore_patterns("*.rrd", "best_paths.parquet"),
     )
@@ -323,11 +370,10 @@ def test_pih_verify_makes_an_unused_function_current_and_names_a_changed_cost(tm
     [row] = read_record(record_path).to_dict("records")
     assert row["from_commit"] == _git(repository, "rev-parse", "--short", "HEAD~1")
     assert json.loads(row["items"])[0]["iterations"] >= 2
-    # Nothing left behind: the record is the only new file, .git holds no worktree.
-    assert _git(repository, "status", "--porcelain", "--untracked-files=all") == (
-        "?? published/equivalence.parquet"
-    )
-    assert _git(repository, "worktree", "list").count("\n") == 0
+    # Nothing left behind: the record is the only new file, ignored ones included.
+    status = _git(repository, "status", "--porcelain", "--ignored", "--untracked-files=all")
+    left = [line for line in status.splitlines() if "__pycache__" not in line]
+    assert left == ["?? published/equivalence.parquet"], left
     # Cost totals x (1 + 1e-12): verify names the cost column and records nothing.
     _git(repository, "add", "-A")
     _git(repository, "commit", "-qm", "verified")

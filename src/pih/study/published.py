@@ -8,7 +8,8 @@ runs of a study published in parts (the paper-scale and sim-to-real studies,
 never reads it: a fresh clone recomputes everything. :func:`stale_reasons` says why it no longer
 matches the config, the rollout code or the Drake that computes it (tests/test_published.py
 fails then): a run is current when its rollout code is today's or was verified to compute the
-same (:mod:`pih.study.equivalence`). Whether another run reproduced a published one is :mod:`pih.study.compare`'s.
+same (:mod:`pih.study.equivalence`). Whether another run reproduced a published one is
+:mod:`pih.study.compare`'s.
 """
 
 from __future__ import annotations

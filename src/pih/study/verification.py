@@ -13,6 +13,7 @@ the published runs' hash to today's (:mod:`pih.study.equivalence`).
 
 from __future__ import annotations
 
+import collections
 import concurrent.futures
 import hashlib
 import io
@@ -23,7 +24,7 @@ import sys
 import tarfile
 import tempfile
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,7 @@ from pih.records.provenance import canonical_json, machine, package_versions
 
 TREE_FILES = ("Snakefile", "workflow", "config", "src")
 """What one version of the code is: its workflow, its config files and its library."""
-HASH_OF_TREE = "import pih.records.provenance as p; print(p.__file__, p.rollout_code_hash())"
+HASH_OF_TREE = "import pih.records.provenance as p; print(p.rollout_code_hash(), p.__file__)"
 """Run in a tree's own interpreter process: which library loaded, and its own hash of itself."""
 
 
@@ -60,6 +61,8 @@ class Item:
     """One past the first iteration whose mean inserted in the recorded run."""
     redeployment: str
     """The offset redeployment's file name (empty when the study makes none)."""
+    recorded: str
+    """The recorded run's directory (under ``planning/``)."""
 
     @property
     def run(self) -> str:
@@ -108,8 +111,9 @@ def run_files(studies: Iterable[Study], root: Path) -> list[Path]:
 
 def suite(studies: Iterable[Study], root: Path) -> list[Item]:
     """The studies' configurations without their situation levels, deduplicated, each at its
-    recorded run whose mean inserted earliest (the shortest that reaches the insertion
-    branches)."""
+    recorded run whose mean inserted earliest, for one iteration past that (the shortest run
+    that reaches the insertion branches; 2 iterations where no run's mean inserted), named by
+    its method levels."""
     from pih.study.config import is_method_key, load_config
     from pih.study.published import _sweep_keys, expected_runs, runs_by_point
 
@@ -125,13 +129,7 @@ def suite(studies: Iterable[Study], root: Path) -> list[Item]:
             if key not in expected:
                 continue
             point = json.loads(key)
-            sections = json.loads(canonical_json(expected[key]))
-            for dotted in (k for k in point if not is_method_key(k)):
-                section, *rest = dotted.split(".")
-                level = sections[section]
-                for name in rest[:-1]:
-                    level = level[name]
-                level.pop(rest[-1], None)
+            sections = _configuration(expected[key], point)
             planner = sections["planner"]
             methods = {"planner.goal": planner["goal"]}
             methods |= {k: v for k, v in point.items() if is_method_key(k)}
@@ -140,11 +138,31 @@ def suite(studies: Iterable[Study], root: Path) -> list[Item]:
             first = _first_inserted_mean(path)
             budget = planner["iterations"]
             iterations = min(budget, first + 1) if first else min(budget, 2)
-            item = Item(name, study.config_files, point, iterations, redeployment)
+            item = Item(name, study.config_files, point, iterations, redeployment, path.parent.name)
             candidates.setdefault(canonical_json(sections), []).append(
                 (first or budget + 1, key, item)
             )
-    return sorted((min(runs)[2] for runs in candidates.values()), key=lambda item: item.name)
+    items = sorted((min(runs)[2] for runs in candidates.values()), key=lambda item: item.name)
+    named = collections.Counter(item.name for item in items)
+    return [
+        item if named[item.name] == 1 else replace(item, name=f"{item.name} ({item.recorded})")
+        for item in items
+    ]
+
+
+def _configuration(sections: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, Any]:
+    """A run's resolved sections without the levels of its situation keys (start, seed: every
+    sweep key that does not select the method)."""
+    from pih.study.config import is_method_key
+
+    sections = json.loads(canonical_json(sections))
+    for dotted in (key for key in point if not is_method_key(key)):
+        section, *path = dotted.split(".")
+        level = sections[section]
+        for name in path[:-1]:
+            level = level[name]
+        level.pop(path[-1], None)
+    return sections
 
 
 def _first_inserted_mean(rollouts: Path) -> int | None:
@@ -160,7 +178,7 @@ def tree_hash(tree: Path) -> str:
     result = _child([sys.executable, "-c", HASH_OF_TREE], tree, _environment(tree))
     if result.returncode:
         raise ValueError(f"{tree}: its rollout hash cannot be computed ({result.stderr.strip()})")
-    loaded, digest = result.stdout.split()
+    digest, loaded = result.stdout.strip().split(maxsplit=1)
     if not Path(loaded).resolve().is_relative_to((tree / "src").resolve()):
         raise ValueError(f"{tree}: another library loaded ({loaded})")
     return digest
@@ -201,13 +219,15 @@ def commit_of(
     for commit in dict.fromkeys(c.removesuffix("-dirty") for c in candidates if c):
         try:
             tree = extract(repository, commit, into)
-            if tree_hash(tree) == made_at:
+            own = tree_hash(tree)
+            if own == made_at:
                 return commit, tree
-        except (LookupError, ValueError):
-            pass
-        tried.append(commit)
+            tried.append(f"{commit} gives {own[:12]}")
+        except (LookupError, ValueError) as error:
+            tried.append(f"{commit}: {str(error).splitlines()[0]}")
     raise ValueError(
-        f"rollout hash {made_at[:12]}: no commit in history gives it (tried {', '.join(tried)})"
+        f"rollout hash {made_at[:12]}: no commit in history gives it (tried: "
+        f"{'; '.join(tried) or 'no commit named'})"
     )
 
 
@@ -262,13 +282,33 @@ def compare_outputs(old: Mapping[str, Path], new: Mapping[str, Path]) -> tuple[s
     digest, differences = hashlib.sha256(), []
     for name in old:
         before, after = column_digests(old[name]), column_digests(new[name])
-        for column in before.keys() | after.keys():
+        for column in sorted(before.keys() | after.keys()):
             digest.update(f"{name}:{column}:{after.get(column)}".encode())
         changed = [c for c in before if before[c] != after.get(c)]
         changed += [c for c in after if c not in before]
         if changed:
             differences.append(f"{name}: column {changed[0]} differs")
     return digest.hexdigest(), differences
+
+
+def _config_differences(old: Mapping[str, Path], new: Mapping[str, Path]) -> list[str]:
+    """Where the two versions resolved another ``scene`` or ``planner`` for one item (their
+    config files differ), read through today's schema: their outputs then answer another
+    question."""
+    from pih.study.published import _differing_keys, recorded_sections
+
+    then, now = (
+        recorded_sections(read_provenance_of(outputs["rollouts.parquet"])["config"])
+        for outputs in (old, new)
+    )
+    differences = []
+    for section in then:
+        if then[section] == now[section]:
+            continue
+        both = isinstance(then[section], dict) and isinstance(now[section], dict)
+        keys = ", ".join(_differing_keys(then[section], now[section])) if both else "unreadable"
+        differences.append(f"the versions resolved another {section} config ({keys})")
+    return differences
 
 
 def verify_hash(
@@ -296,10 +336,14 @@ def verify_hash(
             }
             outputs = {label: future.result() for label, future in futures.items()}
             for label, (_, expected) in versions.items():
-                loaded = read_provenance_of(outputs[label]["rollouts.parquet"])
-                if loaded["rollout_code_sha256"] != expected:
-                    raise RuntimeError(f"{item.name}: the {label} code's run loaded other code")
-            digest, differences = compare_outputs(outputs["old"], outputs["new"])
+                for path in outputs[label].values():
+                    if read_provenance_of(path)["rollout_code_sha256"] != expected:
+                        raise RuntimeError(
+                            f"{item.name}: the {label} code's {path.name} loaded other code"
+                        )
+            differences = _config_differences(outputs["old"], outputs["new"])
+            digest, differing = compare_outputs(outputs["old"], outputs["new"])
+            differences += differing
             result.digests[item.name] = digest
             result.differences += [f"{item.name}: {d}" for d in differences]
             verdict = "identical" if not differences else "; ".join(differences)
@@ -323,6 +367,7 @@ def record_row(verification: Verification, items: Sequence[Item], to_commit: str
                     "item": item.name,
                     "config_files": list(item.config_files),
                     "run": item.run,
+                    "recorded": item.recorded,
                     "iterations": item.iterations,
                     "sha256": verification.digests[item.name],
                 }
@@ -341,38 +386,48 @@ def verify(
     repository: Path,
     record: Path,
     progress: Callable[[str], None] = print,
+    suite_of: Sequence[Study] | None = None,
 ) -> list[Verification]:
-    """Verify today's code (the tree at ``repository``) against the code each published run's
-    hash chains to in ``record`` (:func:`pih.study.equivalence.chained`), once per such hash;
-    when every item of every verification is identical, add one row per hash to ``record``
-    and nothing otherwise. Bad input (no runs, a damaged file or record, a hash no commit
-    gives) is refused in one line before anything runs."""
-    from pih.study.equivalence import add_row, chained, read_record
+    """Verify today's code (the tree at ``repository``) against the code that made the runs of
+    ``studies`` that are not current (:func:`pih.study.equivalence.current_hashes`), once per
+    hash they chain to (:func:`pih.study.equivalence.chained`), on the suite of ``suite_of``
+    (default ``studies``; the command line: every published study, since a row makes every
+    run at its hash current). When every item of every verification is identical, add one row
+    per hash to ``record``; nothing otherwise. Bad input (no runs, a damaged file or record, an
+    empty suite, a hash no commit gives) is refused in one line before any item runs."""
+    from pih.study.equivalence import add_row, chained, current_hashes, read_record
 
     made = [read_provenance_of(path) for path in run_files(studies, repository)]
     rows = read_record(record)
     today = tree_hash(repository)
-    candidates: dict[str, list[str]] = {}
-    for provenance in sorted(made, key=lambda p: p["created_utc"], reverse=True):
-        head = chained(provenance["rollout_code_sha256"], record)
-        if head == today:
-            continue
-        # The code a row verified is the commit that added the row, or the one it names (which
-        # is the code verified only when it was clean).
-        named = list(rows.loc[rows["to_rollout_code_sha256"] == head, "to_commit"][::-1])
-        commits = candidates.setdefault(head, [*_commits_of(record, repository), *named])
-        if provenance["rollout_code_sha256"] == head:
-            commits.append(provenance["code_version"])
-    if not candidates:
+    current = current_hashes(today, record)
+    stale = [p for p in made if p["rollout_code_sha256"] not in current]
+    if not stale:
         progress(f"current: {len(made)} files made at rollout hashes that chain to today's")
         return []
+    # The code of a hash: a run made at it, or a verification that reached it (the commit that
+    # added its row to the record, or the commit the row names when that code was clean).
+    candidates: dict[str, list[str]] = {}
+    for provenance in sorted(stale, key=lambda p: p["created_utc"], reverse=True):
+        made_at, head = (
+            provenance["rollout_code_sha256"],
+            chained(provenance["rollout_code_sha256"], record),
+        )
+        candidates.setdefault(head, [])
+        if made_at == head:
+            candidates[head].append(provenance["code_version"])
+    for head, commits in candidates.items():
+        named = list(rows.loc[rows["to_rollout_code_sha256"] == head, "to_commit"][::-1])
+        commits[:0] = [*_commits_of(record, repository), *named] if named else []
+    items = suite(suite_of or studies, repository)
+    if not items:
+        raise ValueError("the suite is empty: no published run is at a sweep point of the config")
     with tempfile.TemporaryDirectory(prefix="pih-verify-") as scratch:
         scratch = Path(scratch)
         code = {
             head: commit_of(head, commits, repository, scratch / "code")
             for head, commits in candidates.items()
         }
-        items = suite(studies, repository)
         verifications = [
             verify_hash(head, code[head], items, repository, today, scratch, progress)
             for head in candidates
