@@ -293,9 +293,9 @@ def make_reference(part: str, scene: SceneConfig, workers: int, command: str) ->
 
 def read_reference(part: str) -> tuple[pd.DataFrame, PlannerConfig]:
     """A committed reference and its planner config; refused (one line) when another Drake made
-    it, since it then stands for other physics. Rollout code neither today's nor verified equivalent
-    to it (:mod:`pih.study.equivalence`) is said, not refused: a lever
-    under test changes the code, and the reference is what it is judged against."""
+    it, since it then stands for other physics. Rollout code neither today's nor verified
+    equivalent to it (:mod:`pih.study.equivalence`) is said, not refused: a lever under test
+    changes the code, and the reference is what it is judged against."""
     path = REFERENCE_PATHS[part]
     if not path.is_file():
         raise SystemExit(f"{path}: missing; make it with --make-reference {part}")

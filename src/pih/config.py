@@ -131,10 +131,8 @@ def with_defaults(cls: type, data: Mapping[str, Any]) -> dict[str, Any]:
     recorded: merging its default entries in would add entries the record never had."""
     defaults = cls()
     filled = dict(data)
-    for field in dataclasses.fields(cls):
+    for field in (f for f in dataclasses.fields(cls) if f.init):
         default = getattr(defaults, field.name)
-        if not field.init:
-            continue
         if field.name not in data:
             plain = dataclasses.asdict(default) if dataclasses.is_dataclass(default) else default
             filled[field.name] = json.loads(json.dumps(plain))

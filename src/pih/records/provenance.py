@@ -288,13 +288,12 @@ def library_hash() -> str:
     return digest.hexdigest()
 
 
-@functools.cache
-def code_version() -> str:
-    """``git describe --always --dirty`` of the checkout holding the library, else the version."""
+def git_describe(directory: Path) -> str | None:
+    """``git describe --always --dirty`` of the checkout holding ``directory``, if it is one."""
     try:
         out = subprocess.run(
             ["git", "describe", "--always", "--dirty"],
-            cwd=LIBRARY_ROOT,
+            cwd=directory,
             capture_output=True,
             text=True,
             timeout=10,
@@ -302,9 +301,15 @@ def code_version() -> str:
         )
         return out.stdout.strip()
     except (OSError, subprocess.SubprocessError):
-        from pih import __version__
+        return None
 
-        return __version__
+
+@functools.cache
+def code_version() -> str:
+    """:func:`git_describe` of the checkout holding the library, else the version."""
+    from pih import __version__
+
+    return git_describe(LIBRARY_ROOT) or __version__
 
 
 @functools.cache

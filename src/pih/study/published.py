@@ -317,8 +317,7 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
     redeployments are not all there yet, are left out. Refused in one line before anything is
     copied: a run, new or published before, that is not what this repository computes
     (:func:`run_stale_reasons`: each run at today's config and Drake, and today's rollout code or
-    one verified equivalent to it), or one
-    already published whose rollouts differ. Each run's provenance says where it was made
+    one verified equivalent to it), or one already published whose rollouts differ. Each run's provenance says where it was made
     (host, CPU, code version, date). Once every run is in, the study's planning tables are made
     from them (``planning/summary``)."""
     from pih.study.planning_summary import write_pooled_summary
@@ -337,8 +336,13 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
         for key, path in ours.items()
         if redeployments <= {f.name for f in path.parent.glob("redeploy_*.parquet")}
     }
-    reasons = [r for k, p in finished.items() for r in run_stale_reasons(p, expected[k], results)]
-    reasons += [r for k, p in published.items() for r in run_stale_reasons(p, expected[k], root)]
+    current = current_hashes()
+    reasons = [
+        r for k, p in finished.items() for r in run_stale_reasons(p, expected[k], results, current)
+    ]
+    reasons += [
+        r for k, p in published.items() for r in run_stale_reasons(p, expected[k], root, current)
+    ]
     reasons += [
         f"{path.parent.name}: published already, with other rollouts"
         for key, path in finished.items()

@@ -33,7 +33,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from pih.records.provenance import canonical_json, machine, package_versions
+from pih.records.provenance import canonical_json, git_describe, machine, package_versions
 
 TREE_FILES = ("Snakefile", "workflow", "config", "src")
 """What one version of the code is: its workflow, its config files and its library."""
@@ -407,15 +407,13 @@ def verify(
         return []
     # The code of a hash: a run made at it, or a verification that reached it (the commit that
     # added its row to the record, or the commit the row names when that code was clean).
-    candidates: dict[str, list[str]] = {}
+    heads = {
+        made_at: chained(made_at, record) for made_at in {p["rollout_code_sha256"] for p in stale}
+    }
+    candidates: dict[str, list[str]] = {head: [] for head in heads.values()}
     for provenance in sorted(stale, key=lambda p: p["created_utc"], reverse=True):
-        made_at, head = (
-            provenance["rollout_code_sha256"],
-            chained(provenance["rollout_code_sha256"], record),
-        )
-        candidates.setdefault(head, [])
-        if made_at == head:
-            candidates[head].append(provenance["code_version"])
+        if heads[provenance["rollout_code_sha256"]] == provenance["rollout_code_sha256"]:
+            candidates[provenance["rollout_code_sha256"]].append(provenance["code_version"])
     for head, commits in candidates.items():
         named = list(rows.loc[rows["to_rollout_code_sha256"] == head, "to_commit"][::-1])
         commits[:0] = [*_commits_of(record, repository), *named] if named else []
@@ -434,7 +432,7 @@ def verify(
         ]
     if not any(v.differences for v in verifications):
         for verification in verifications:
-            add_row(record_row(verification, items, _describe(repository)), record)
+            add_row(record_row(verification, items, git_describe(repository) or ""), record)
     return verifications
 
 
@@ -442,10 +440,3 @@ def _commits_of(path: Path, repository: Path) -> list[str]:
     """The commits that changed ``path``, the newest first."""
     log = _child(["git", "log", "--format=%h", "--", str(path)], repository)
     return log.stdout.split() if not log.returncode else []
-
-
-def _describe(repository: Path) -> str:
-    """``git describe --always --dirty`` of the repository."""
-    return (
-        _child(["git", "describe", "--always", "--dirty"], repository).stdout.strip() or "unknown"
-    )
