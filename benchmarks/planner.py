@@ -34,7 +34,8 @@ from pih.config import ConfigError, from_mapping, to_mapping
 from pih.planning.config import PlannerConfig, replace
 from pih.planning.planner import Planner
 from pih.scene.config import SceneConfig
-from pih.study.config import load_config, scene_settings, scene_with
+from pih.scene.overrides import scene_settings, scene_with
+from pih.study.config import load_config
 from pih.workflow.jobs import preloaded_allocator
 
 GOAL_SPEEDUP = 2.0

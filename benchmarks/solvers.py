@@ -29,9 +29,10 @@ from snakemake.utils import update_config
 from pih.planning.config import OuterConfig, PlannerConfig, replace
 from pih.planning.planner import Planner
 from pih.scene.config import SceneConfig
+from pih.scene.overrides import scene_with
 from pih.scene.simulation import PegInHoleScene
 from pih.scene.trace import RobotTrajectory, Trace
-from pih.study.config import load_yaml_strictly, scene_with
+from pih.study.config import load_yaml_strictly
 
 
 def scene_variants(configfiles: list[str]) -> tuple[SceneConfig, dict[str, SceneConfig]]:

@@ -57,16 +57,17 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from pih.analysis.pooling import REDEPLOY_PATTERNS
 from pih.config import ConfigError, from_mapping, to_mapping
 from pih.planning.config import ONE_LEVEL, PlannerConfig
 from pih.planning.planner import Planner, RolloutWorkers
 from pih.planning.run_record import RecordedRun, recorded_rollout, succeeded
+from pih.publishing.equivalence import current_hashes
 from pih.records.outputs import read_provenance, write_table
 from pih.records.provenance import package_versions, record
 from pih.scene.config import SceneConfig
-from pih.study.config import load_config, scene_settings, scene_with
-from pih.study.equivalence import current_hashes
-from pih.study.pooling import REDEPLOY_PATTERNS
+from pih.scene.overrides import scene_settings, scene_with
+from pih.study.config import load_config
 
 HERE = Path(__file__).parent
 SET_PATH = HERE / "step_convergence_set.parquet"
@@ -294,7 +295,7 @@ def make_reference(part: str, scene: SceneConfig, workers: int, command: str) ->
 def read_reference(part: str) -> tuple[pd.DataFrame, PlannerConfig]:
     """A committed reference and its planner config; refused (one line) when another Drake made
     it, since it then stands for other physics. Rollout code neither today's nor verified
-    equivalent to it (:mod:`pih.study.equivalence`) is said, not refused: a lever under test
+    equivalent to it (:mod:`pih.publishing.equivalence`) is said, not refused: a lever under test
     changes the code, and the reference is what it is judged against."""
     path = REFERENCE_PATHS[part]
     if not path.is_file():

@@ -228,7 +228,7 @@ def test_a_scene_error_is_named_as_the_scene_not_the_validation_overrides():
     config = smoke()
     config["validation"]["scene_overrides"] = {"material.friction": -0.1}
     with pytest.raises(
-        ConfigError, match=r"^validation\.scene_overrides: scene\.material\.friction: -0"
+        ConfigError, match=r"^validation\.scene_overrides\.material\.friction: -0\.1 is not"
     ):
         check_study(config, study_points(config))
 
@@ -242,18 +242,33 @@ def test_a_scene_error_is_named_as_the_scene_not_the_validation_overrides():
         ),
         (
             {"solver": {"stiction_tolerance_m_per_s": 1e-5}},
-            r"^validation\.scene_overrides: .* expected a mapping of dotted config paths",
+            (
+                r"^validation\.scene_overrides: a nested mapping; write each setting as a dotted "
+                r"path, e.g. solver\.stiction_tolerance_m_per_s: 1e-05$"
+            ),
         ),
     ],
 )
 def test_a_bad_scene_override_is_named_by_the_path_the_user_wrote(overrides, message):
     """A path that is no scene key is named as the user wrote it, under the overrides (no
-    ``scene.`` the user did not write); a section given as a nested mapping is told to be dotted
-    paths."""
+    ``scene.`` the user did not write); a section given as a nested mapping is shown the dotted
+    path to write instead."""
     config = smoke()
     config["validation"]["scene_overrides"] = overrides
     with pytest.raises(ConfigError, match=message):
         check_study(config, study_points(config))
+
+
+def test_a_swept_section_is_shown_the_dotted_path_to_sweep_instead():
+    """A sweep level that is a mapping would replace a whole config section."""
+    config = smoke()
+    config["sweep"]["planner.outer"] = [{"rule": "paper"}]
+    with pytest.raises(ConfigError) as raised:
+        check_study(config, study_points(config))
+    assert one_line(raised.value).startswith(
+        "sweep.planner.outer: a nested mapping; write each setting as a dotted path, "
+        "e.g. planner.outer.rule: 'paper'"
+    )
 
 
 def test_a_swept_value_out_of_range_names_the_sweep_point():
@@ -361,7 +376,7 @@ RRD_WRITER = """
 import sys
 import numpy as np
 from pih.records.outputs import write_text
-from pih.study.recordings import record_insertion
+from pih.analysis.recordings import record_insertion
 from pih.scene.trace import Trace
 from pih.scene.config import SceneConfig
 

@@ -9,7 +9,7 @@ import pytest
 
 from pih.__main__ import main
 from pih.planning.run_record import RecordedRun
-from pih.study.published import (
+from pih.publishing.published import (
     PUBLISHED_DIR,
     PUBLISHED_STUDIES,
     README_BEGIN,
@@ -113,9 +113,9 @@ def test_the_published_study_is_what_the_config_and_code_compute(study):
 def test_publish_copies_a_studys_run_whole_and_nothing_else(tmp_path):
     """A tree that is the study's run (its one sweep point, resolved config and this rollout
     code) is copied by the study's globs into published/<name>, replacing the old copy."""
+    from pih.publishing.published import PublishedStudy, publish
     from pih.records.outputs import write_table
     from pih.records.provenance import record
-    from pih.study.published import PublishedStudy, publish
 
     shutil.copytree(ROOT / "config", tmp_path / "config")
     (tmp_path / "config" / "one.yaml").write_text(
@@ -177,9 +177,14 @@ def test_publish_refuses_a_tree_that_is_not_the_studys_run(tmp_path, capsys, mon
 
 
 def test_readme_results_are_generated_from_the_published_tables(tmp_path):
+    from pih.publishing.published import (
+        README_BEGIN,
+        README_END,
+        readme_with_results,
+        results_block,
+    )
     from pih.records.outputs import write_table
     from pih.records.provenance import record
-    from pih.study.published import README_BEGIN, README_END, readme_with_results, results_block
 
     summary = tmp_path / "planning" / "summary"
     summary.mkdir(parents=True)
@@ -324,7 +329,7 @@ UNITS = {"phase": ("", "phase"), "success": ("1", "inserted")}
 def _study_in_parts(tmp_path: Path, name: str, sweep: str) -> tuple:
     """A study published in parts whose overlay (``config/<name>.yaml`` under ``tmp_path``, with
     the repository's configs) is ``sweep``, and its expected runs."""
-    from pih.study.published import PublishedStudy
+    from pih.publishing.published import PublishedStudy
 
     shutil.copytree(ROOT / "config", tmp_path / "config")
     (tmp_path / "config" / f"{name}.yaml").write_text(sweep)
@@ -342,9 +347,9 @@ def test_a_run_of_a_study_that_fixed_a_key_joins_one_that_sweeps_it(tmp_path):
     """A study sweeping the training simulator takes the default study's runs (which fix it) as
     its ``true_hole`` runs, at the level their config records, and a run of a study that fixed
     the other level as its ``sensed_per_run`` run, each under its own name."""
+    from pih.publishing.published import Part, publish_part
     from pih.records.outputs import write_table
     from pih.records.provenance import record
-    from pih.study.published import Part, publish_part
 
     study, expected = _study_in_parts(
         tmp_path,
@@ -673,9 +678,9 @@ def test_a_study_in_parts_takes_current_runs_and_refuses_stale_ones(tmp_path, mo
     """Each part adds the runs of the study a tree holds (not the others); a run made by another
     Drake is refused in one line, before anything is copied; until the last run is in, the
     study's block says how far it is and where its runs were made."""
+    from pih.publishing.published import Part, publish_part
     from pih.records.outputs import write_table
     from pih.records.provenance import record
-    from pih.study.published import Part, publish_part
 
     study, expected = _study_in_parts(
         tmp_path,

@@ -6,9 +6,9 @@ import pytest
 import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
+from pih.analysis.recordings import SCENE, record_insertion, record_planning
 from pih.scene.config import SceneConfig
 from pih.scene.trace import Trace
-from pih.study.recordings import SCENE, record_insertion, record_planning
 
 
 def _chunks(path) -> dict[str, list]:

@@ -9,9 +9,9 @@ import pandas as pd
 import pytest
 
 from pih.planning.run_record import RecordedRun
+from pih.publishing.published import PUBLISHED_STUDIES
 from pih.records.outputs import read_provenance, write_table
 from pih.records.provenance import record
-from pih.study.published import PUBLISHED_STUDIES
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_DIR = PUBLISHED_STUDIES["paper"].directory

@@ -6,10 +6,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from pih.config import ConfigError, to_mapping
-from pih.planning.config import PlannerConfig
-from pih.scene.config import SceneConfig
-from pih.study.aggregate import (
+from pih.analysis.aggregate import (
     ablation_table,
     cost_bands,
     figure_bands,
@@ -18,9 +15,12 @@ from pih.study.aggregate import (
     robustness_table,
     success_table,
 )
+from pih.analysis.run_summary import final_success_fraction
+from pih.analysis.statistics import sign_test_p, wilson_interval
+from pih.config import ConfigError, to_mapping
+from pih.planning.config import PlannerConfig
+from pih.scene.config import SceneConfig
 from pih.study.config import override, resolve, seed_key, sweep_points, variant_overrides
-from pih.study.run_summary import final_success_fraction
-from pih.study.statistics import sign_test_p, wilson_interval
 
 
 def base_config() -> dict:
@@ -162,7 +162,7 @@ def test_paired_table_compares_methods_at_the_points_both_ran():
 
 
 def test_variant_pairs_compare_each_variant_with_the_reference_per_method():
-    from pih.study.aggregate import variant_pairs
+    from pih.analysis.aggregate import variant_pairs
 
     keys = ["planner.goal", "variant", "planner.seed"]
     summaries = pd.DataFrame(
@@ -369,7 +369,7 @@ def test_an_empty_scene_overrides_in_a_config_file_clears_the_defaults():
 
 
 def test_deployments_that_only_repeat_a_training_rollout_are_recognised():
-    from pih.study.run_summary import repeats_training
+    from pih.analysis.run_summary import repeats_training
 
     def rows(phase, *poses):
         return pd.DataFrame(
@@ -394,8 +394,8 @@ def test_each_runs_first_sensing_sits_beside_its_outcome():
     """The per-run table: the first training iteration's sensed hole relative to the real one,
     and each run's deployments from the training start and from the headline's offset starts on
     the training scene (not under a model error); by method, then sensing error."""
-    from pih.study.aggregate import per_run_table
-    from pih.study.run_summary import first_sensing_error
+    from pih.analysis.aggregate import per_run_table
+    from pih.analysis.run_summary import first_sensing_error
 
     rollouts = pd.DataFrame(
         {

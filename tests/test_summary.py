@@ -3,7 +3,7 @@
 import numpy as np
 import pandas as pd
 
-from pih.study.summary import (
+from pih.analysis.summary import (
     PAPER_PEARSON_R,
     chosen_variants,
     pearson_table,

@@ -15,6 +15,16 @@ import pandas as pd
 import pytest
 
 from pih.__main__ import main
+from pih.publishing.equivalence import add_row, chained, current_hashes, read_record
+from pih.publishing.published import (
+    PUBLISHED_DIR,
+    expected_runs,
+    expected_validation,
+    run_stale_reasons,
+    stale_reasons,
+    validation_stale_reasons,
+)
+from pih.publishing.verification import Study, column_digests, compare_outputs, verify
 from pih.records.outputs import write_table
 from pih.records.provenance import (
     VALIDATION_MODULES,
@@ -25,16 +35,6 @@ from pih.records.provenance import (
     rollout_code_hash,
     validation_code_hash,
 )
-from pih.study.equivalence import add_row, chained, current_hashes, read_record
-from pih.study.published import (
-    PUBLISHED_DIR,
-    expected_runs,
-    expected_validation,
-    run_stale_reasons,
-    stale_reasons,
-    validation_stale_reasons,
-)
-from pih.study.verification import Study, column_digests, compare_outputs, verify
 
 ROOT = Path(__file__).resolve().parents[1]
 GIT = ["git", "-c", "user.name=pih test", "-c", "user.email=pih@localhost"]
@@ -73,7 +73,7 @@ def test_a_truncated_record_gets_one_line(tmp_path, monkeypatch, capsys):
     with pytest.raises(ValueError, match="equivalence.parquet: not a readable equivalence record"):
         current_hashes("h2", path)
     # pih verify refuses it in one line before running anything.
-    monkeypatch.setattr("pih.study.equivalence.RECORD", path)
+    monkeypatch.setattr("pih.publishing.equivalence.RECORD", path)
     assert main(["verify", str(ROOT / PUBLISHED_DIR)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "not a readable equivalence record" in err[0], err
@@ -197,8 +197,8 @@ def test_outputs_are_compared_bit_for_bit_column_by_column(tmp_path):
 def test_the_suite_is_the_published_configurations_without_start_and_seed():
     """3 methods x {the real hole, the sensed hole per run}, each at the recorded run whose mean
     inserted earliest, one iteration past that."""
-    from pih.study.published import PUBLISHED_STUDIES
-    from pih.study.verification import suite
+    from pih.publishing.published import PUBLISHED_STUDIES
+    from pih.publishing.verification import suite
 
     studies = [Study(s.directory, s.config_files) for s in PUBLISHED_STUDIES.values()]
     items = suite(studies, ROOT)
@@ -246,7 +246,7 @@ def _study_made_at(tmp_path: Path, made_at: str, commit: str) -> Study:
 
 
 def _published_studies() -> list[Study]:
-    from pih.study.published import PUBLISHED_STUDIES
+    from pih.publishing.published import PUBLISHED_STUDIES
 
     return [Study(s.directory, s.config_files) for s in PUBLISHED_STUDIES.values()]
 
@@ -348,7 +348,7 @@ def test_pih_verify_makes_an_unused_function_current_and_names_a_changed_cost(tm
     files = tuple(str(repository / f) for f in config)
 
     def stale() -> list[str]:
-        from pih.study.verification import tree_hash
+        from pih.publishing.verification import tree_hash
 
         current = current_hashes(tree_hash(repository), record_path)
         return stale_reasons(study.directory, expected_runs(files), current)

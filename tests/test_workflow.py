@@ -415,9 +415,14 @@ def test_a_job_depends_on_the_library_modules_its_script_reaches():
     plan = imported_library_modules(scripts / "plan.py")
     reached = {"planning.planner", "scene.simulation", "planning.dmp", "records.outputs"}
     assert reached | {"planning.__init__", "scene.__init__"} <= set(plan)
-    assert not {"study.aggregate", "study.plots", "study.summary", "study.pooling"} & set(plan)
+    assert not {
+        "analysis.aggregate",
+        "analysis.plots",
+        "analysis.summary",
+        "analysis.pooling",
+    } & set(plan)
     assert "validation.experiment" not in plan
-    assert {"study.aggregate", "study.plots"} <= set(
+    assert {"analysis.aggregate", "analysis.plots"} <= set(
         imported_library_modules(scripts / "planning_aggregate.py")
     )
     assert "planning.planner" not in imported_library_modules(scripts / "whitney_curve.py")
@@ -487,7 +492,7 @@ def test_a_study_published_in_parts_gets_the_workflows_tables(smoke_run, tmp_pat
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from pih.study.published import Part, PublishedStudy, publish_part, results_block
+    from pih.publishing.published import Part, PublishedStudy, publish_part, results_block
 
     study = PublishedStudy(
         "smoke",

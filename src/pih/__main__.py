@@ -64,7 +64,7 @@ from pathlib import Path
 from pih.cli import job
 from pih.cli.common import first_line
 from pih.cli.show import SHOWN_TYPES
-from pih.study.compare import R_TOLERANCE
+from pih.publishing.compare import R_TOLERANCE
 
 
 def _one_line_errors(command: Callable[[list[str] | None], int]) -> Callable[..., int]:

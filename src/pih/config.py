@@ -16,6 +16,8 @@ import typing
 from collections.abc import Mapping
 from typing import Any, Literal, get_args, get_origin
 
+import numpy as np
+
 
 class ConfigError(ValueError):
     """A configuration value is missing, of the wrong type, or outside its allowed range."""
@@ -54,6 +56,13 @@ def _coerce(tp: Any, value: Any, key: str) -> Any:
         }
     if origin is dict:
         # Dotted-path overrides: the keys are checked where they are applied.
+        nested = (
+            [k for k, v in value.items() if isinstance(v, Mapping)]
+            if isinstance(value, Mapping)
+            else []
+        )
+        if nested:
+            raise ConfigError(f"{key}: {_dotted_hint(nested[0], value[nested[0]])}")
         ok = isinstance(value, Mapping) and all(
             isinstance(k, str) and isinstance(v, (int, float, str, bool)) for k, v in value.items()
         )
@@ -288,3 +297,40 @@ def _yaml_text(value: Any) -> str:
 def _cell(text: str) -> str:
     """Text for one Markdown table cell: one line, ``|`` escaped."""
     return " ".join(text.split()).replace("|", "\\|")
+
+
+def plain(value: Any) -> Any:
+    """A numpy scalar as the Python value it holds (Paramspace gives numpy scalars)."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def set_paths(config: dict[str, Any], paths: Mapping[str, Any], where: str) -> None:
+    """Set each dotted path of ``paths`` in ``config``, in place; an error names the path after
+    ``where``, the config entry the paths came from."""
+    for path, value in paths.items():
+        node = config
+        *parents, leaf = str(path).split(".")
+        for depth, key in enumerate(parents):
+            if not isinstance(node.get(key), dict):
+                section = ".".join(parents[: depth + 1])
+                raise ConfigError(f"{where}{path}: {section!r} is not a config section")
+            node = node[key]
+        if leaf not in node:
+            section = ".".join(parents)
+            raise ConfigError(
+                f"{where}{path}: no config key {leaf!r} in {section or 'the config'}; "
+                f"allowed: {sorted(node)}"
+            )
+        if isinstance(value, Mapping) and isinstance(node[leaf], dict) and node[leaf]:
+            # A nested mapping would replace the whole section, dropping the keys it lacks.
+            raise ConfigError(f"{where}{path}: {_dotted_hint(str(path), value)}")
+        node[leaf] = plain(value)
+
+
+def _dotted_hint(path: str, section: Mapping[str, Any]) -> str:
+    """What to write instead of a nested mapping at dotted ``path``: its first setting as a
+    dotted path."""
+    while isinstance(section, Mapping) and section:
+        name, section = next(iter(section.items()))
+        path = f"{path}.{name}"
+    return f"a nested mapping; write each setting as a dotted path, e.g. {path}: {section!r}"

@@ -1,5 +1,6 @@
 """One planning run (paper Algorithm 1) at one sweep point, then its deployment trials."""
 
+from pih.analysis.recordings import record_planning
 from pih.config import from_mapping, to_mapping
 from pih.planning.config import PlannerConfig
 from pih.planning.planner import Planner
@@ -7,7 +8,6 @@ from pih.planning.run_record import PATH_COLUMNS, ROLLOUT_COLUMNS
 from pih.records.outputs import write_table
 from pih.scene.config import SceneConfig
 from pih.study.config import seed_key, variant_overrides
-from pih.study.recordings import record_planning
 from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):

@@ -5,19 +5,19 @@ from pathlib import Path
 
 import pandas as pd
 
-from pih.config import from_mapping
-from pih.records.outputs import read_provenance
-from pih.scene.config import SceneConfig
-from pih.study import plots
-from pih.study.aggregate import planning_tables
-from pih.study.config import VARIANT_KEY
-from pih.study.planning_summary import write_planning_summary
-from pih.study.run_summary import (
+from pih.analysis import plots
+from pih.analysis.aggregate import planning_tables
+from pih.analysis.planning_summary import write_planning_summary
+from pih.analysis.run_summary import (
     best_training_rows,
     redeployment_summaries,
     run_tables,
     run_title,
 )
+from pih.config import from_mapping
+from pih.records.outputs import read_provenance
+from pih.scene.config import SceneConfig
+from pih.study.config import VARIANT_KEY
 from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):

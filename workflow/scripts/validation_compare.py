@@ -2,6 +2,7 @@
 
 import pandas as pd
 
+from pih.analysis import plots
 from pih.config import from_mapping
 from pih.records.outputs import (
     markdown_table,
@@ -11,7 +12,6 @@ from pih.records.outputs import (
     write_text,
 )
 from pih.scene.config import SceneConfig
-from pih.study import plots
 from pih.study.config import ValidationSection
 from pih.validation.experiment import (
     ALIGNED_COLUMNS,

@@ -1,10 +1,10 @@
 """Quasi-static straight-down insertion in Drake at one offset, in one validation variant (paper §2.4)."""
 
+from pih.analysis.recordings import record_insertion
 from pih.config import from_mapping
 from pih.records.outputs import write_trace
 from pih.scene.config import SceneConfig
 from pih.scene.simulation import PegInHoleScene
-from pih.study.recordings import record_insertion
 from pih.validation.config import ValidationConfig
 from pih.validation.experiment import run_insertion
 from pih.workflow.jobs import job_provenance, logged

@@ -1,4 +1,4 @@
-"""``pih compare OLD NEW``: did NEW reproduce OLD (:mod:`pih.study.compare`)."""
+"""``pih compare OLD NEW``: did NEW reproduce OLD (:mod:`pih.publishing.compare`)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pih.cli.common import first_line
 
 def compare(old: Path, new: Path, rtol: float, r_tolerance: float) -> int:
     """Print both levels of the comparison; 0 when the conclusions reproduce, 1 when not."""
-    from pih.study.compare import compare
+    from pih.publishing.compare import compare
 
     try:
         result = compare(old, new, rtol, r_tolerance)

@@ -11,7 +11,7 @@ from pih.cli.common import first_line
 
 def publish(results: Path, name: str) -> int:
     """Copy ``results`` into ``published/<name>`` and regenerate the study's results block."""
-    from pih.study.published import (
+    from pih.publishing.published import (
         PUBLISHED_STUDIES,
         publish,
         publish_part,

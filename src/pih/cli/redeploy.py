@@ -12,12 +12,12 @@ def redeploy(runs: list[Path], start_std_m: float, output: Path | None, workers:
     """Deploy each run's policy again from starts offset by N(0, start_std_m²); print the rates."""
     import pandas as pd
 
+    from pih.analysis.statistics import wilson_interval
     from pih.config import ConfigError
     from pih.planning.run_record import ROLLOUT_COLUMNS, Phase, RecordedRun, phase_rows
     from pih.records.outputs import write_table
     from pih.records.provenance import record as provenance_record
     from pih.study.redeployment import redeploy
-    from pih.study.statistics import wilson_interval
 
     if missing_parent("redeploy", "--output", output):
         return 1

@@ -1,5 +1,5 @@
 """``pih verify [STUDY_DIR ...]``: today's code computes what made the published runs
-(:mod:`pih.study.verification`)."""
+(:mod:`pih.publishing.verification`)."""
 
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ from pih.cli.common import first_line
 def verify(directories: list[Path]) -> int:
     """Print one line per suite item; 0 when the published runs are current or were verified
     (a row added to the equivalence record), 1 when an output differs or the input is bad."""
-    from pih.study.equivalence import RECORD, REPOSITORY
-    from pih.study.published import PUBLISHED_STUDIES
-    from pih.study.verification import Study
-    from pih.study.verification import verify as run
+    from pih.publishing.equivalence import RECORD, REPOSITORY
+    from pih.publishing.published import PUBLISHED_STUDIES
+    from pih.publishing.verification import Study
+    from pih.publishing.verification import verify as run
 
     started = time.monotonic()
     published = [

@@ -2,7 +2,7 @@
 
 Plain data, no Drake: :class:`pih.scene.simulation.PegInHoleScene` makes traces, and the
 output and study layers (``pih.records.outputs``, ``pih.validation.experiment``,
-``pih.study.aggregate``) read and write them without importing the simulator.
+``pih.analysis.aggregate``) read and write them without importing the simulator.
 """
 
 from __future__ import annotations

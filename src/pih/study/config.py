@@ -21,22 +21,24 @@ import re
 import sys
 from collections import Counter
 from collections.abc import Iterator, Mapping
-from contextlib import contextmanager, suppress
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
 import yaml
 
 from pih.config import (
     ConfigError,
     described,
     from_mapping,
+    plain,
+    set_paths,
     to_mapping,
 )
 from pih.planning.config import ONE_LEVEL, PlannerConfig, replace
 from pih.records.provenance import canonical_json
 from pih.scene.config import SceneConfig
+from pih.scene.overrides import scene_with
 from pih.validation.config import ValidationConfig, validation_scene_config
 
 GOAL_KEY = "planner.goal"
@@ -155,10 +157,6 @@ def sweep_points(
     return points
 
 
-def plain(value: Any) -> Any:
-    return value.item() if isinstance(value, np.generic) else value
-
-
 def variant_overrides(config: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, Any]:
     """The dotted-path overrides a sweep point's ``variant`` level stands for (none without one).
     Each planning run records them, so that pooling knows what a variant's name covers."""
@@ -182,26 +180,6 @@ def override(config: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, A
         set_paths(out, variant_overrides(config, {VARIANT_KEY: name}), f"variants.{name}.")
     set_paths(out, point, "sweep.")
     return out
-
-
-def set_paths(config: dict[str, Any], paths: Mapping[str, Any], where: str) -> None:
-    """Set each dotted path of ``paths`` in ``config``, in place; an error names the path after
-    ``where``, the config entry the paths came from."""
-    for path, value in paths.items():
-        node = config
-        *parents, leaf = str(path).split(".")
-        for depth, key in enumerate(parents):
-            if not isinstance(node.get(key), dict):
-                section = ".".join(parents[: depth + 1])
-                raise ConfigError(f"{where}{path}: {section!r} is not a config section")
-            node = node[key]
-        if leaf not in node:
-            section = ".".join(parents)
-            raise ConfigError(
-                f"{where}{path}: no config key {leaf!r} in {section or 'the config'}; "
-                f"allowed: {sorted(node)}"
-            )
-        node[leaf] = plain(value)  # Paramspace gives numpy scalars
 
 
 def resolve(
@@ -324,36 +302,6 @@ def robustness_section(config: Mapping[str, Any]) -> RobustnessSection:
     return from_mapping(RobustnessSection, config["robustness"], "robustness")
 
 
-def scene_with(scene: Mapping[str, Any], overrides: Mapping[str, Any], key: str) -> SceneConfig:
-    """The scene with dotted-path ``overrides`` (``"solver.time_step_s"``) applied, validated.
-    ``key`` is the config entry the overrides came from: a path that is no scene key is named
-    under it as written (``key.solver.x``), a value the resulting scene rejects as the scene's
-    (``key: scene.solver.retry_time_step_s``), since a check across fields may name a key the
-    overrides did not set."""
-    data = copy.deepcopy(dict(scene))
-    set_paths(data, overrides, f"{key}.")
-    return from_mapping(SceneConfig, data, f"{key}: scene")
-
-
-def scene_settings(settings: list[str], option: str = "--set") -> dict[str, Any]:
-    """Dotted scene overrides from command-line ``scene.KEY=VALUE`` settings (values read as
-    YAML, never evaluated), for :func:`scene_with`; a step set alone brings its retry at half
-    of it, as the study's setting has."""
-    overrides = {}
-    for setting in settings:
-        key, sep, value = setting.partition("=")
-        if not sep or not key.startswith("scene."):
-            raise ConfigError(f"{option} {setting!r}: expected scene.<section>.<key>=<value>")
-        overrides[key.removeprefix("scene.")] = yaml.safe_load(value)
-    step = overrides.get("solver.time_step_s")
-    if step is not None and "solver.retry_time_step_s" not in overrides:
-        # YAML 1.1 reads 1e-4 (no dot) as a string; the scene's own check names a bad value.
-        with suppress(TypeError, ValueError):
-            overrides["solver.retry_time_step_s"] = float(step) / 2
-            overrides["solver.time_step_s"] = float(step)
-    return overrides
-
-
 OWN_SECTIONS = (
     "sweep",
     "variants",
@@ -431,7 +379,6 @@ def _merge(config: dict[str, Any], update: Mapping[str, Any]) -> None:
 
 def load_yaml_strictly(path: str) -> Any:
     """YAML that rejects a repeated key, and reports a syntax error, naming the file and line."""
-    import yaml
 
     class Loader(yaml.SafeLoader):
         def construct_mapping(self, node, deep=False):  # type: ignore[override]

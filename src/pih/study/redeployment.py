@@ -14,7 +14,7 @@ from pih.config import to_mapping
 from pih.planning.planner import Planner
 from pih.planning.run_record import RecordedRun
 from pih.scene.config import SceneConfig
-from pih.study.config import scene_with
+from pih.scene.overrides import scene_with
 
 
 def deployment_scene(run: RecordedRun, model_error: Mapping[str, Any]) -> SceneConfig:

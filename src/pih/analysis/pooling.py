@@ -17,10 +17,16 @@ from typing import Any
 
 import pandas as pd
 
+from pih.analysis.run_summary import (
+    NO_MODEL_ERROR,
+    model_error_name,
+    run_tables,
+    split_keys,
+    variant,
+)
 from pih.config import ConfigError, recorded_config, to_mapping
 from pih.planning.config import ONE_LEVEL, OuterConfig, method_label, recorded_planner, replace
 from pih.records.outputs import read_provenance
-from pih.study.run_summary import NO_MODEL_ERROR, model_error_name, run_tables, split_keys, variant
 
 ONE_LEVEL_LABEL = method_label(ONE_LEVEL)
 from pih.planning.run_record import DEPLOYMENT_PHASES, Phase, phase_rows
@@ -31,7 +37,7 @@ from pih.study.config import GOAL_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key,
 DEPLOY_STD_KEY = "planner.deploy_start_std_m"
 REDEPLOY_PATTERNS = ("redeploy_start_std_m~*.parquet", "redeploy_model_error~*.parquet")
 LABEL_KEYS = (GOAL_KEY,)
-"""Keys the method label (:func:`pih.study.run_summary.variant`) shows, so runs may differ in them."""
+"""Keys the method label (:func:`pih.analysis.run_summary.variant`) shows, so runs may differ in them."""
 
 
 def _provenance(path: Path, step: str) -> dict[str, Any]:

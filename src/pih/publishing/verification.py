@@ -8,7 +8,7 @@ one recorded (start, seed) of its configuration through each version's own workf
 Snakefile, scripts, config files and library, in a process of its own) until one iteration past
 the first whose mean inserted, with its deployment trials and offset redeployment; every output
 column is compared bit for bit. When all are identical, the equivalence record gets one row from
-the published runs' hash to today's (:mod:`pih.study.equivalence`).
+the published runs' hash to today's (:mod:`pih.publishing.equivalence`).
 """
 
 from __future__ import annotations
@@ -114,8 +114,8 @@ def suite(studies: Iterable[Study], root: Path) -> list[Item]:
     recorded run whose mean inserted earliest, for one iteration past that (the shortest run
     that reaches the insertion branches; 2 iterations where no run's mean inserted), named by
     its method levels."""
+    from pih.publishing.published import _sweep_keys, expected_runs, runs_by_point
     from pih.study.config import is_method_key, load_config
-    from pih.study.published import _sweep_keys, expected_runs, runs_by_point
 
     candidates: dict[str, list[tuple[int, str, Item]]] = {}
     for study in studies:
@@ -295,7 +295,7 @@ def _config_differences(old: Mapping[str, Path], new: Mapping[str, Path]) -> lis
     """Where the two versions resolved another ``scene`` or ``planner`` for one item (their
     config files differ), read through today's schema: their outputs then answer another
     question."""
-    from pih.study.published import _differing_keys, recorded_sections
+    from pih.publishing.published import _differing_keys, recorded_sections
 
     then, now = (
         recorded_sections(read_provenance_of(outputs["rollouts.parquet"])["config"])
@@ -389,13 +389,13 @@ def verify(
     suite_of: Sequence[Study] | None = None,
 ) -> list[Verification]:
     """Verify today's code (the tree at ``repository``) against the code that made the runs of
-    ``studies`` that are not current (:func:`pih.study.equivalence.current_hashes`), once per
-    hash they chain to (:func:`pih.study.equivalence.chained`), on the suite of ``suite_of``
+    ``studies`` that are not current (:func:`pih.publishing.equivalence.current_hashes`), once per
+    hash they chain to (:func:`pih.publishing.equivalence.chained`), on the suite of ``suite_of``
     (default ``studies``; the command line: every published study, since a row makes every
     run at its hash current). When every item of every verification is identical, add one row
     per hash to ``record``; nothing otherwise. Bad input (no runs, a damaged file or record, an
     empty suite, a hash no commit gives) is refused in one line before any item runs."""
-    from pih.study.equivalence import add_row, chained, current_hashes, read_record
+    from pih.publishing.equivalence import add_row, chained, current_hashes, read_record
 
     made = [read_provenance_of(path) for path in run_files(studies, repository)]
     rows = read_record(record)

@@ -8,8 +8,8 @@ runs of a study published in parts (the paper-scale and sim-to-real studies,
 never reads it: a fresh clone recomputes everything. :func:`stale_reasons` says why it no longer
 matches the config, the rollout code or the Drake that computes it (tests/test_published.py
 fails then): a run is current when its rollout code is today's or was verified to compute the
-same (:mod:`pih.study.equivalence`). Whether another run reproduced a published one is
-:mod:`pih.study.compare`'s.
+same (:mod:`pih.publishing.equivalence`). Whether another run reproduced a published one is
+:mod:`pih.publishing.compare`'s.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ from typing import Any
 
 import pandas as pd
 
+from pih.publishing.equivalence import REPOSITORY, current_hashes
 from pih.records.outputs import read_provenance
 from pih.records.provenance import (
     VALIDATION_MODULES,
@@ -37,7 +38,6 @@ from pih.records.provenance import (
     modules_hash,
     validation_code_hash,
 )
-from pih.study.equivalence import REPOSITORY, current_hashes
 
 
 @dataclass(frozen=True)
@@ -148,7 +148,7 @@ def stale_reasons(
     missing or extra against ``expected`` (:func:`point_key` of a sweep point -> its resolved
     ``scene`` and ``planner`` sections, :func:`pih.study.config.resolved_sections`), a run whose
     recorded config differs, whose rollout code is not ``current`` (default: today's and those
-    verified equivalent to it, :func:`pih.study.equivalence.current_hashes`), or whose Drake
+    verified equivalent to it, :func:`pih.publishing.equivalence.current_hashes`), or whose Drake
     is not ``drake`` (default: the installed one)."""
     current = current_hashes() if current is None else current
     drake = drake or importlib.metadata.version("drake")
@@ -320,8 +320,8 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
     one verified equivalent to it), or one already published whose rollouts differ. Each run's provenance says where it was made
     (host, CPU, code version, date). Once every run is in, the study's planning tables are made
     from them (``planning/summary``)."""
-    from pih.study.planning_summary import write_pooled_summary
-    from pih.study.pooling import find_outputs, pool
+    from pih.analysis.planning_summary import write_pooled_summary
+    from pih.analysis.pooling import find_outputs, pool
 
     config_files = tuple(str(root / f) for f in study.config_files)
     expected, redeployments = expected_runs(config_files), expected_redeployments(config_files)
@@ -452,11 +452,11 @@ README_BEGIN, README_END = PUBLISHED_STUDIES["default"].markers
 
 def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["default"]) -> str:
     """README's results for ``study``, generated from its published summary tables: the
-    headline per method (and per compared level, :func:`pih.study.summary.planning_rows`) and its
+    headline per method (and per compared level, :func:`pih.analysis.summary.planning_rows`) and its
     paired comparisons from offset starts (those from the training start are in
     ``summary.md``)."""
+    from pih.analysis.summary import perturbed_pairs, planning_rows
     from pih.records.outputs import markdown_table
-    from pih.study.summary import perturbed_pairs, planning_rows
 
     tables = published / "planning" / "summary"
     if study.in_parts and not tables.is_dir():

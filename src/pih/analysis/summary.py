@@ -11,9 +11,9 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
+from pih.analysis.aggregate import compared_rows, headline_std, offset_level, on_training_scene
+from pih.analysis.run_summary import NO_MODEL_ERROR
 from pih.records.outputs import markdown_table
-from pih.study.aggregate import compared_rows, headline_std, offset_level, on_training_scene
-from pih.study.run_summary import NO_MODEL_ERROR
 from pih.validation.experiment import PAPER_PEARSON_R, PAPER_RELATIVE_ERROR_PCT
 
 # Paper §4 (conclusions): bilevel, with its outer rule, "100% successful insertion within 50
@@ -195,7 +195,7 @@ def perturbed_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFr
 
 
 def paired_rows(paired: pd.DataFrame) -> pd.DataFrame:
-    """The overall rows of :func:`pih.study.aggregate.paired_table`."""
+    """The overall rows of :func:`pih.analysis.aggregate.paired_table`."""
     overall = paired[paired["dimension"] == "all"]
     return overall.drop(columns=["dimension", "level"]).reset_index(drop=True)
 

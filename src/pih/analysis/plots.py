@@ -13,12 +13,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from pih.analysis.aggregate import compared_rows, headline_std, on_training_scene
+from pih.analysis.run_summary import best_training_rows
 from pih.planning.run_record import Phase, phase_rows
 from pih.records.outputs import write_with
 from pih.records.provenance import canonical_json, stable
 from pih.scene.config import HoleConfig, hole_outline
-from pih.study.aggregate import compared_rows, headline_std, on_training_scene
-from pih.study.run_summary import best_training_rows
 
 QUANTITIES = {
     "f_x_n": ("$F_x$ (N)", "Insertion force $F_x$ vs depth (paper Fig. 4)"),
@@ -265,7 +265,7 @@ METHOD_MARKERS = "osD^vP*X"  # deployment figure: one marker per method, besides
 def deploy_success_figure(success: pd.DataFrame, robustness: pd.DataFrame) -> plt.Figure:
     """Deployment success with its 95 % interval over runs, the headline filled: from starts
     offset by the smallest σ redeployed (``robustness``, on the training scene), hollow beside
-    it from the training start (``success``, :func:`pih.study.aggregate.ablation_table`'s rows). One
+    it from the training start (``success``, :func:`pih.analysis.aggregate.ablation_table`'s rows). One
     bold heading per level of a compared dimension (or ``all runs`` when there is none), one row
     per method, named with its run count and drawn in its own colour and marker."""
     compared = compared_rows(success)

@@ -1,4 +1,4 @@
-"""Aggregates over planning runs (their per-run rows from :mod:`pih.study.run_summary`): the
+"""Aggregates over planning runs (their per-run rows from :mod:`pih.analysis.run_summary`): the
 cost bands (Fig. 9), deployment success with intervals over independent runs, paired
 comparisons, and the Markdown tables. docs/planner.md explains the statistics.
 """
@@ -13,9 +13,14 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from pih.analysis.run_summary import (
+    FIRST_SENSING_COLUMNS,
+    NO_MODEL_ERROR,
+    level_columns,
+    split_keys,
+)
+from pih.analysis.statistics import rate_over_runs, sign_test_p
 from pih.study.config import VARIANT_KEY
-from pih.study.run_summary import FIRST_SENSING_COLUMNS, NO_MODEL_ERROR, level_columns, split_keys
-from pih.study.statistics import rate_over_runs, sign_test_p
 
 SEED_KEY = "planner.seed"
 REPLICATE_KEYS = ("planner.start_x_m", SEED_KEY)

@@ -30,10 +30,10 @@ from typing import Any
 
 import pandas as pd
 
+from pih.analysis.run_summary import NO_MODEL_ERROR
+from pih.publishing.published import runs_by_point
 from pih.records.outputs import read_provenance
 from pih.records.provenance import input_sha256
-from pih.study.published import runs_by_point
-from pih.study.run_summary import NO_MODEL_ERROR
 
 R_TOLERANCE = 0.02
 """How far a validation correlation r may move for the conclusions to hold: the paper's own
@@ -275,8 +275,8 @@ def shared_points(
 def _restricted(tree: Path, runs: Mapping[str, Path], points: set[str], copy: Path) -> Path:
     """``copy``: ``tree`` with only the planning ``runs`` at ``points`` (its other outputs
     whole) and the planning tables remade from them as ``pih aggregate`` makes them."""
-    from pih.study.planning_summary import write_pooled_summary
-    from pih.study.pooling import find_outputs, pool
+    from pih.analysis.planning_summary import write_pooled_summary
+    from pih.analysis.pooling import find_outputs, pool
 
     for entry in tree.iterdir():
         if entry.name != "planning" and entry.is_dir():

@@ -9,10 +9,8 @@ from typing import Any
 
 import pandas as pd
 
-from pih.records.outputs import markdown_table, write_table, write_text
-from pih.records.provenance import record as provenance_record
-from pih.study import plots
-from pih.study.aggregate import (
+from pih.analysis import plots
+from pih.analysis.aggregate import (
     BAND_COLUMNS,
     PAIRED_COLUMNS,
     SUCCESS_COLUMNS,
@@ -23,8 +21,10 @@ from pih.study.aggregate import (
     planning_tables,
     robustness_columns,
 )
-from pih.study.pooling import SOURCE_COLUMNS, PooledRuns
-from pih.study.run_summary import BEST_COST_COLUMNS, level_columns
+from pih.analysis.pooling import SOURCE_COLUMNS, PooledRuns
+from pih.analysis.run_summary import BEST_COST_COLUMNS, level_columns
+from pih.records.outputs import markdown_table, write_table, write_text
+from pih.records.provenance import record as provenance_record
 
 
 def write_planning_summary(
@@ -85,7 +85,7 @@ def write_planning_summary(
 def write_pooled_summary(
     pooled: PooledRuns, directory: Path, reference_variant: str | None = None
 ) -> PlanningTables:
-    """Pooled runs' (:func:`pih.study.pooling.pool`) planning tables, their summary files under
+    """Pooled runs' (:func:`pih.analysis.pooling.pool`) planning tables, their summary files under
     ``directory`` with ``sources.parquet`` (which file each training's rows came from): ``pih
     aggregate``'s work, and a study published in parts'."""
     keys = pooled.sweep_keys

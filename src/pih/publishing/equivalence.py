@@ -1,5 +1,5 @@
 """The equivalence record, ``published/equivalence.parquet``: which rollout codes were shown to
-compute what an earlier one computed (``pih verify``, :mod:`pih.study.verification`).
+compute what an earlier one computed (``pih verify``, :mod:`pih.publishing.verification`).
 
 A published planning run is current when its rollout hash is today's, or when rows of this
 record lead from its hash to today's: rows chain, so a run at H1 is current at H3 once H1 → H2

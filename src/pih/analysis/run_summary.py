@@ -1,6 +1,6 @@
 """One planning run's outcome, read from its records: the best training rollouts, deployment
 success and the training view (:func:`run_summary`), and the per-run rows every table across
-runs (:mod:`pih.study.aggregate`) is made from (:func:`run_tables`, :func:`redeployment_summaries`).
+runs (:mod:`pih.analysis.aggregate`) is made from (:func:`run_tables`, :func:`redeployment_summaries`).
 """
 
 from __future__ import annotations

@@ -1,0 +1,5 @@
+"""What a study's runs say, read from their files: per-run tables (:mod:`.run_summary`), runs
+pooled across studies (:mod:`.pooling`), rates, intervals and sign tests over runs
+(:mod:`.statistics`, :mod:`.aggregate`), the planner's and the validation's summaries
+(:mod:`.planning_summary`, :mod:`.summary`), figures (:mod:`.plots`) and Rerun recordings
+(:mod:`.recordings`). No Drake. May import :mod:`pih.study` and everything below it."""
