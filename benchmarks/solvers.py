@@ -1,15 +1,16 @@
 """Benchmark: scene settings (solver, modulus, margin, fillet, step) on the planner's rollouts.
 
-Records the robot trajectories of short planning runs on the default scene (bilevel with our
-outer rule, so later iterations reach the hole: the trajectories cover free flight, landing on
-the top surface and the chamfer, and pressing into the hole), then replays every trajectory
+Records the robot trajectories of short planning runs of the config's planner on its scene
+(bilevel with our outer rule, so later iterations reach the hole: the trajectories cover free
+flight, landing on the top surface and the chamfer, and pressing into the hole), then replays every trajectory
 under each scene variant in one process and prints, per variant: ms per rollout, the fraction
 with an interval rerun at the retry step, the fraction that still diverged (and why), and how
 the outcome compares with the first variant's: the median distance between the two P2 at the
 end and how many rollouts end on the other side of the insertion test (|P2 − H| ≤ 1 mm).
 
-The variants are the named dotted-path scene settings of ``validation.variants`` in the config
-files (the validation's variants by default; a YAML file of your own adds more), applied to the
+The config files are read as the workflow reads them (``--configfile``: the default config, then
+yours). The variants are the named dotted-path scene settings of ``validation.variants`` (the
+validation's by default; a file of your own with that section replaces them), applied to the
 study's planner scene (not the validation's deeper hole).
 
     python benchmarks/solvers.py [--iterations 10] [--start-x-m -0.031 -0.037] [--seed 4 1]
@@ -24,44 +25,53 @@ import time
 from collections import Counter
 
 import numpy as np
-from snakemake.utils import update_config
 
-from pih.planning.config import OuterConfig, PlannerConfig, replace
+from pih.config import ConfigError
+from pih.planning.config import PlannerConfig, replace
 from pih.planning.planner import Planner
 from pih.scene.config import SceneConfig
 from pih.scene.overrides import scene_with
 from pih.scene.simulation import PegInHoleScene
 from pih.scene.trace import RobotTrajectory, Trace
-from pih.study.config import load_yaml_strictly
+from pih.study.config import load_config, resolve
 
 
-def scene_variants(configfiles: list[str]) -> tuple[SceneConfig, dict[str, SceneConfig]]:
-    """The study's scene and each named variant's, from the config files (a later file's scene
-    fields and variants override an earlier one's)."""
-    config: dict = {}
-    for path in configfiles:
-        update_config(config, load_yaml_strictly(path) or {})
-    scene = config.get("scene", {})
-    variants = (config.get("validation") or {}).get("variants") or {}
-    return scene_with(scene, {}, "scene"), {
-        name: scene_with(scene, overrides, f"validation.variants.{name}")
-        for name, overrides in variants.items()
-    }
+def study_configs(
+    configfiles: list[str],
+) -> tuple[SceneConfig, PlannerConfig, dict[str, SceneConfig]]:
+    """The study's scene and planner, and each named variant's scene, from the config files as
+    the workflow reads them (a later file's fields override an earlier one's; its
+    ``validation.variants`` replace the earlier ones whole)."""
+    config = load_config(configfiles)
+    scene, planner = resolve(config)
+    variants = config["validation"]["variants"]
+    return (
+        scene,
+        planner,
+        {
+            name: scene_with(config["scene"], overrides, f"validation.variants.{name}")
+            for name, overrides in variants.items()
+        },
+    )
 
 
 def planning_trajectories(
-    scene: SceneConfig, iterations: int, starts: list[float], seeds: list[int]
+    scene: SceneConfig,
+    planner_config: PlannerConfig,
+    iterations: int,
+    starts: list[float],
+    seeds: list[int],
 ) -> list[RobotTrajectory]:
-    """Every robot trajectory (training, mean and deployment) of short default planning runs."""
+    """Every robot trajectory (training, mean and deployment) of short planning runs of the
+    config's planner with our outer rule."""
     captured: list[RobotTrajectory] = []
     for start_x_m, seed in zip(starts, seeds, strict=True):
         config = replace(
-            PlannerConfig(),
+            planner_config,
             iterations=iterations,
-            method="bilevel",
+            goal="deepest_explored",
             seed=seed,
             start_x_m=start_x_m,
-            outer=OuterConfig(rule="deepest_explored"),
         )
         planner = Planner.from_configs(scene, config)
         rollout = planner.scene.rollout
@@ -96,7 +106,10 @@ def main() -> None:
     parser.add_argument("--configfile", nargs="+", default=["config/config.yaml"])
     parser.add_argument("--variants", nargs="+", help="names under validation.variants (all)")
     args = parser.parse_args()
-    study_scene, variants = scene_variants(args.configfile)
+    try:
+        study_scene, planner_config, variants = study_configs(args.configfile)
+    except ConfigError as error:
+        parser.error(str(error))
     names = args.variants or list(variants)
     unknown = [name for name in names if name not in variants]
     if unknown:
@@ -104,9 +117,11 @@ def main() -> None:
             f"--variants: {unknown} are not under validation.variants ({sorted(variants)})"
         )
 
-    robots = planning_trajectories(study_scene, args.iterations, args.start_x_m, args.seed)
+    robots = planning_trajectories(
+        study_scene, planner_config, args.iterations, args.start_x_m, args.seed
+    )
     print(f"{len(robots)} planning trajectories ({args.iterations} iterations per run)")
-    tolerance = PlannerConfig().success_tolerance_m
+    tolerance = planner_config.success_tolerance_m
     reference: np.ndarray | None = None
     for name in names:
         config = variants[name].replace(solver__log_contact_patches=False)

@@ -34,6 +34,7 @@ paper's rule, ours), drawn without replacement by ``numpy.random.default_rng(0)`
 by (run, iteration, rollout); 240 in all (80 per method). ``--draw-from RUN ...`` redraws it.
 
     python benchmarks/step_convergence.py [--set scene.solver.time_step_s=0.00025] [--workers 2]
+                                          [--rollouts N]
     python benchmarks/step_convergence.py --half-step [--set ...]
     python benchmarks/step_convergence.py --make-reference set|deployments [--workers 2]
     python benchmarks/step_convergence.py --replay default.parquet
@@ -354,10 +355,16 @@ def compare_set(replayed: np.ndarray, reference: pd.DataFrame, label: str) -> tu
     return int(flips.sum()), float(quantiles[0])
 
 
-def check_against_reference(scene: SceneConfig, workers: int) -> str:
-    """Replay the set and the deployment trials at ``scene``; the verdict line."""
+def check_against_reference(scene: SceneConfig, workers: int, rollouts: int | None = None) -> str:
+    """Replay the set and the deployment trials at ``scene``; the verdict line. ``rollouts``: a
+    quick look at the set's first rollouts and that many deployment trials per (point, source,
+    method), whose verdict is PARTIAL, never PASS."""
     reference, planner = read_reference("set")
     deployments, _ = read_reference("deployments")
+    if rollouts is not None:
+        reference = reference.head(rollouts)
+        keys = ["point", "source", "method"]
+        deployments = deployments.groupby(keys).head(rollouts).reset_index(drop=True)
     made_at = read_provenance(REFERENCE_PATHS["set"])["config"]["scene"]
     print(
         "the setting differs from the reference's scene in: "
@@ -392,6 +399,8 @@ def check_against_reference(scene: SceneConfig, workers: int) -> str:
     print(f"  paired signs kept: {len(signs) - len(changed)} of {len(signs)}")
     agree = 1 - flips / len(reference)
     verdict = "PASS" if agree >= AGREEMENT and changed.empty else "FAIL"
+    if rollouts is not None:
+        verdict = "PARTIAL"
     return (
         f"flips={flips} of {len(reference)} vs_reference_ms={1e3 * REFERENCE_STEP_S:g} "
         f"median_dp2_um={median_dp2_um:.3g} verdict={verdict}"
@@ -462,7 +471,19 @@ def main() -> int:
     mode.add_argument("--draw-from", nargs="+", type=Path, metavar="ROLLOUTS")
     mode.add_argument("--replay", type=Path, metavar="FILE", help="write the set's replay here")
     mode.add_argument("--against", type=Path, metavar="FILE", help="compare with such a replay")
+    parser.add_argument(
+        "--rollouts",
+        type=int,
+        metavar="N",
+        help="a quick look: the set's first N rollouts and N deployment trials per point, source "
+        "and method (verdict=PARTIAL)",
+    )
     args = parser.parse_args()
+    if args.rollouts is not None and (
+        args.rollouts < 1
+        or any((args.half_step, args.make_reference, args.draw_from, args.replay, args.against))
+    ):
+        parser.error("--rollouts N: N >= 1, with the check against the reference only")
 
     if args.draw_from:
         drawn = draw_set(args.draw_from)
@@ -489,7 +510,7 @@ def main() -> int:
     elif args.half_step:
         print(check_against_half_step(scene, args.workers))
     else:
-        print(check_against_reference(scene, args.workers))
+        print(check_against_reference(scene, args.workers, args.rollouts))
     return 0
 
 
