@@ -237,3 +237,10 @@ def test_the_docs_name_only_files_that_exist():
         if not (ROOT / path).is_file()
     ]
     assert missing == []
+
+
+def test_readme_is_at_most_200_lines():
+    """README is for users (what, how to run, how long, the result, where to read on); the
+    reasoning goes to docs/, so adding to README means moving older text there."""
+    lines = len((ROOT / "README.md").read_text(encoding="utf-8").splitlines())
+    assert lines <= 200, f"README.md has {lines} lines; move text to docs/"
