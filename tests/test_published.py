@@ -346,7 +346,8 @@ def _study_in_parts(tmp_path: Path, name: str, sweep: str) -> tuple:
 def test_a_run_of_a_study_that_fixed_a_key_joins_one_that_sweeps_it(tmp_path):
     """A study sweeping the training simulator takes the default study's runs (which fix it) as
     its ``true_hole`` runs, at the level their config records, and a run of a study that fixed
-    the other level as its ``sensed_per_run`` run, each under its own name."""
+    the other level as its ``sensed_per_run`` run, each under the name the study's own workflow
+    gives its point (the sweep's keys in the sweep's order), not its maker's."""
     from pih.publishing.published import Part, publish_part
     from pih.records.outputs import write_table
     from pih.records.provenance import record
@@ -354,8 +355,9 @@ def test_a_run_of_a_study_that_fixed_a_key_joins_one_that_sweeps_it(tmp_path):
     study, expected = _study_in_parts(
         tmp_path,
         "modes",
-        "sweep:\n  planner.start_x_m: [-0.04]\n  planner.goal: [deepest_explored]\n"
-        "  planner.simulated_hole: [true_hole, sensed_per_run, sensed_per_iteration]\n",
+        "sweep:\n  planner.start_x_m: [-0.04]\n"
+        "  planner.simulated_hole: [true_hole, sensed_per_run, sensed_per_iteration]\n"
+        "  planner.goal: [deepest_explored]\n",
     )
     rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
     fixed = {"planner.start_x_m": -0.04, "planner.goal": "deepest_explored"}
@@ -379,8 +381,8 @@ def test_a_run_of_a_study_that_fixed_a_key_joins_one_that_sweeps_it(tmp_path):
     block = " ".join(results_block(tmp_path / study.directory, study).split())
     assert "2 of its 3 runs so far" in block
     assert sorted(p.name for p in (tmp_path / study.directory / "planning").iterdir()) == [
-        "start_x_m~-0.04_goal~deepest_explored_simulated_hole~sensed_per_run",
-        "start_x_m~-0.04_goal~deepest_explored_simulated_hole~true_hole",
+        "start_x_m~-0.04_simulated_hole~sensed_per_run_goal~deepest_explored",
+        "start_x_m~-0.04_simulated_hole~true_hole_goal~deepest_explored",
     ]
 
 
@@ -732,3 +734,19 @@ def test_a_study_in_parts_takes_current_runs_and_refuses_stale_ones(tmp_path, mo
         ValueError, match=r"-0\.035_goal~deepest_explored/rollouts.parquet: made by"
     ):
         publish_part(tree("next", -0.03, drake="9.9.9"), study, root=tmp_path)
+
+
+@pytest.mark.parametrize("study", PUBLISHED_STUDIES.values(), ids=lambda s: s.name)
+def test_every_published_run_has_the_name_its_study_gives_its_point(study):
+    """One name per run, whichever study made it: globbing or sorting a study's runs sees one
+    pattern (the 12 runs sim_to_real took from the earlier default were named otherwise)."""
+    from pih.publishing.published import _sweep_keys, run_directories, runs_by_point
+
+    planning = ROOT / study.directory / "planning"
+    if not planning.is_dir():
+        pytest.skip(f"no {study.directory} here")
+    files = tuple(str(ROOT / f) for f in study.config_files)
+    names = run_directories(files)
+    runs = runs_by_point(planning, _sweep_keys(expected_runs(files)))
+    assert runs
+    assert {p.parent.name for k, p in runs.items() if names[k] != p.parent.name} == set()

@@ -1,10 +1,10 @@
-import pandas as pd
-from snakemake.utils import Paramspace, validate
+from snakemake.utils import validate
 
 from pih.records.provenance import script_library_hash
 from pih.study.config import (
     check_study,
     figure_point,
+    planning_space,
     read_config_files,
     resolved_sections,
     robustness_section,
@@ -26,20 +26,13 @@ with stop_on_config_error():
     )
     validate(config, "../schemas/config.schema.json")
     # Sweep: each key a dotted config path, each value its levels; a run's directory is named
-    # by the last path components and levels ("start_x_m~-0.035_goal~deepest_explored_seed~0"). At
-    # most max_sweep_points (default 10,000), counted before any point is built.
+    # by the last path components and levels (planning_space). At most max_sweep_points
+    # (default 10,000), counted before any point is built.
     POINTS = study_points(config)
     check_study(config, POINTS)
 
 SWEEP_PATHS = {path.rsplit(".", 1)[-1]: path for path in config["sweep"]}
-PLANNING = Paramspace(
-    pd.DataFrame(
-        [[p[path] for path in config["sweep"]] for p in POINTS],
-        columns=list(SWEEP_PATHS),
-    ),
-    filename_params="*",
-    param_sep="~",
-)
+PLANNING = planning_space(config, POINTS)
 
 
 def sweep_point(wildcards):

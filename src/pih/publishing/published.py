@@ -113,11 +113,21 @@ PUBLISHED_DIR = PUBLISHED_STUDIES["default"].directory
 def expected_runs(config_files: tuple[str, ...]) -> dict[str, dict[str, object]]:
     """What a study's config computes: :func:`point_key` of each sweep point -> its resolved
     ``scene`` and ``planner`` sections."""
-    from pih.study.config import load_config, resolved_sections, sweep_points
+    from pih.study.config import load_config, resolved_sections, study_points
 
     config = load_config(list(config_files))
-    points = sweep_points(config["sweep"], config.get("variants"), config["planner"]["goal"])
-    return {point_key(p): resolved_sections(config, p) for p in points}
+    return {point_key(p): resolved_sections(config, p) for p in study_points(config)}
+
+
+def run_directories(config_files: tuple[str, ...]) -> dict[str, str]:
+    """:func:`point_key` of each sweep point of a study -> the directory its workflow names the
+    run with (:func:`pih.study.config.run_names`): a run published into the study takes that
+    name, whichever study made it."""
+    from pih.study.config import load_config, run_names, study_points
+
+    config = load_config(list(config_files))
+    points = study_points(config)
+    return dict(zip(map(point_key, points), run_names(config, points), strict=True))
 
 
 def publish(results: Path, study: PublishedStudy, root: Path = Path(".")) -> int:
@@ -226,10 +236,14 @@ def run_stale_reasons(
     default, a key today's code no longer has is a reason."""
     current = current_hashes() if current is None else current
     drake = drake or importlib.metadata.version("drake")
+    provenances = {
+        data: read_provenance(data)
+        for data in [path, *sorted(path.parent.glob("redeploy_*.parquet"))]
+    }
     reasons = []
-    for data in [path, *sorted(path.parent.glob("redeploy_*.parquet"))]:
-        reasons += _made_elsewhere(read_provenance(data), data.relative_to(root), current, drake)
-    recorded = read_provenance(path)["config"]
+    for data, provenance in provenances.items():
+        reasons += _made_elsewhere(provenance, data.relative_to(root), current, drake)
+    recorded = provenances[path]["config"]
     for section, then in recorded_sections(recorded).items():
         if isinstance(then, str):
             reasons.append(f"{path.parent.name}: its {section} config {then}")
@@ -352,13 +366,10 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
         more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
         raise ValueError(f"{results}: {reasons[0]}{more}")
     new = {key: path for key, path in finished.items() if key not in published}
-    for path in new.values():
+    directories = run_directories(config_files)
+    for key, path in new.items():
         files = [path, *(path.parent / name for name in sorted(redeployments))]
-        # A run of a study that fixed a key is named with its level of it too, so that it does
-        # not take the place of this study's run at another level.
-        fixed = _fixed_levels(read_provenance(path), keys)
-        name = path.parent.name + "".join(f"_{k.split('.')[-1]}~{v}" for k, v in fixed.items())
-        _copy_whole(files, path.parent, destination / name)
+        _copy_whole(files, path.parent, destination / directories[key])
     missing = len(set(expected) - set(runs_by_point(destination, keys)))
     if not missing:
         write_pooled_summary(pool(*find_outputs([destination])), destination / "summary")

@@ -9,6 +9,7 @@ whatever signal stops it (:func:`atomic_path`).
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -247,13 +248,21 @@ def write_table(
 
 
 def read_provenance(path: str | Path) -> dict[str, Any]:
-    """The provenance record of a Parquet file, read from its schema without loading data."""
-    metadata = pq.read_schema(path).metadata or {}
-    if PROVENANCE_KEY not in metadata:
+    """The provenance record of a Parquet file, read from its schema without loading data; the
+    schema is read once per version of the file (outputs are replaced whole, never edited in
+    place), however often staleness checks, pooling and comparing ask."""
+    stat = os.stat(path)
+    record = _provenance_json(os.path.abspath(path), stat.st_ino, stat.st_mtime_ns, stat.st_size)
+    if record is None:
         raise ValueError(
             f"{path}: no {PROVENANCE_KEY.decode()} record in the Parquet schema metadata"
         )
-    return json.loads(metadata[PROVENANCE_KEY])
+    return json.loads(record)
+
+
+@functools.lru_cache(maxsize=4096)
+def _provenance_json(path: str, inode: int, mtime_ns: int, size: int) -> bytes | None:
+    return (pq.read_schema(path).metadata or {}).get(PROVENANCE_KEY)
 
 
 def read_metadata(path: str | Path, key: str) -> Any:

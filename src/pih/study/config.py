@@ -502,6 +502,30 @@ def check_variant_names(variants: Any) -> None:
             )
 
 
+def run_names(config: Mapping[str, Any], points: list[dict[str, Any]]) -> list[str]:
+    """Each point's run directory, as the workflow names it (:func:`planning_space`)."""
+    return list(planning_space(config, points).instance_patterns)
+
+
+def planning_space(config: Mapping[str, Any], points: list[dict[str, Any]]) -> Any:
+    """The planning runs as Snakemake's ``Paramspace``: a run's directory is named by the last
+    component of each sweep key and its level, in the sweep's order
+    (``start_x_m~-0.035_goal~deepest_explored_seed~0``), the one name a point has in its study,
+    whichever study made its run."""
+    import pandas as pd
+    from snakemake.utils import Paramspace
+
+    sweep = list(config["sweep"])
+    return Paramspace(
+        pd.DataFrame(
+            [[p[path] for path in sweep] for p in points],
+            columns=[path.rsplit(".", 1)[-1] for path in sweep],
+        ),
+        filename_params="*",
+        param_sep="~",
+    )
+
+
 def study_points(config: Mapping[str, Any]) -> list[dict[str, Any]]:
     """The study's sweep points (:func:`sweep_points`), its variant names and size checked
     first: a sweep larger than ``max_sweep_points`` stops before any point is built."""
