@@ -16,7 +16,7 @@ from pih.planning.outer import CLEAN_OVERLAP_M, OuterLevel, outer_goal
 from pih.planning.planner import Planner, run_seeds
 from pih.planning.run_record import recorded_rollout
 from pih.scene.config import SceneConfig
-from pih.study.config import seed_key
+from pih.study.points import seed_key
 
 SENSING = SensingConfig(hole_std=(0.005, 0.001, 0.02))
 

@@ -16,7 +16,7 @@ from pih.config import ConfigError, from_mapping, to_mapping
 from pih.planning.config import PlannerConfig, SensingConfig, replace
 from pih.planning.planner import Planner
 from pih.planning.run_record import Rollout, recorded_pose, recorded_rollout
-from pih.study.config import seed_key
+from pih.study.points import seed_key
 
 
 def planner_from(simulated_hole: object = "true_hole", **sensing: object) -> PlannerConfig:

@@ -20,7 +20,8 @@ from pih.analysis.statistics import sign_test_p, wilson_interval
 from pih.config import ConfigError, to_mapping
 from pih.planning.config import PlannerConfig
 from pih.scene.config import SceneConfig
-from pih.study.config import override, resolve, seed_key, sweep_points, variant_overrides
+from pih.study.config import override, resolve, sweep_points
+from pih.study.points import seed_key, variant_overrides
 
 
 def base_config() -> dict:

@@ -421,7 +421,7 @@ def test_a_job_depends_on_the_library_modules_its_script_reaches():
         "analysis.summary",
         "analysis.pooling",
     } & set(plan)
-    assert "validation.experiment" not in plan
+    assert not {"validation.experiment", "validation.config"} & set(plan)
     assert {"analysis.aggregate", "analysis.plots"} <= set(
         imported_library_modules(scripts / "planning_aggregate.py")
     )
@@ -432,16 +432,16 @@ def test_a_job_depends_on_the_library_modules_its_script_reaches():
 
 def test_a_reworded_comment_or_docstring_re_runs_no_job(tmp_path, monkeypatch):
     """A job's library hash is over what its modules compute: rewording a comment or docstring
-    in a module the planning runs reach (the validation section's config, through the study's)
-    leaves the hash as it was, and changing a default value does not."""
+    in a module the planning runs reach (the planner's config) leaves the hash as it was, and
+    adding a definition does not."""
     from pih.records import provenance
 
     library = tmp_path / "pih"
     shutil.copytree(provenance.LIBRARY_ROOT, library, ignore=shutil.ignore_patterns("__pycache__"))
     monkeypatch.setattr(provenance, "LIBRARY_ROOT", library)
     plan = ROOT / "workflow" / "scripts" / "plan.py"
-    module = library / "validation" / "config.py"
-    assert "validation.config" in provenance.imported_library_modules(plan)
+    module = library / "planning" / "config.py"
+    assert "planning.config" in provenance.imported_library_modules(plan)
 
     def plan_hash() -> str:
         provenance.script_library_hash.cache_clear()
@@ -449,14 +449,11 @@ def test_a_reworded_comment_or_docstring_re_runs_no_job(tmp_path, monkeypatch):
 
     before = plan_hash()
     source = module.read_text()
-    module.write_text(
-        source.replace(
-            "# Whitney's theory is quasi-static", "# Whitney's theory: quasi-static"
-        ).replace('"""The straight-down insertion', '"""The insertion straight down')
-    )
-    assert module.read_text() != source
+    docstring_end = source.index('"""', 3) + 3
+    reworded = f'"""Reworded."""\n# A new comment.{source[docstring_end:]}'
+    module.write_text(reworded)
     assert plan_hash() == before
-    module.write_text(source.replace("0.0002,", "0.0003,"))
+    module.write_text(f"{source}\nEXTRA_SETTING_S = 0.0003\n")
     assert plan_hash() != before
     provenance.script_library_hash.cache_clear()
 

@@ -7,7 +7,7 @@ from pih.planning.planner import Planner
 from pih.planning.run_record import PATH_COLUMNS, ROLLOUT_COLUMNS
 from pih.records.outputs import write_table
 from pih.scene.config import SceneConfig
-from pih.study.config import seed_key, variant_overrides
+from pih.study.points import seed_key, variant_overrides
 from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):

@@ -17,7 +17,7 @@ from pih.analysis.run_summary import (
 from pih.config import from_mapping
 from pih.records.outputs import read_provenance
 from pih.scene.config import SceneConfig
-from pih.study.config import VARIANT_KEY
+from pih.study.points import VARIANT_KEY
 from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):

@@ -20,7 +20,7 @@ from pih.analysis.run_summary import (
     split_keys,
 )
 from pih.analysis.statistics import rate_over_runs, sign_test_p
-from pih.study.config import VARIANT_KEY
+from pih.study.points import VARIANT_KEY
 
 SEED_KEY = "planner.seed"
 REPLICATE_KEYS = ("planner.start_x_m", SEED_KEY)

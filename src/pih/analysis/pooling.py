@@ -32,7 +32,7 @@ ONE_LEVEL_LABEL = method_label(ONE_LEVEL)
 from pih.planning.run_record import DEPLOYMENT_PHASES, Phase, phase_rows
 from pih.records.provenance import canonical_json, input_sha256
 from pih.scene.config import SceneConfig
-from pih.study.config import GOAL_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key, upgraded_point
+from pih.study.points import GOAL_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key, upgraded_point
 
 DEPLOY_STD_KEY = "planner.deploy_start_std_m"
 REDEPLOY_PATTERNS = ("redeploy_start_std_m~*.parquet", "redeploy_model_error~*.parquet")

@@ -12,12 +12,12 @@ from typing import Any
 
 import pandas as pd
 
-from pih.config import recorded_config, to_mapping
+from pih.config import plain, recorded_config, to_mapping
 from pih.planning.config import method_label, recorded_planner, upgraded
 from pih.planning.run_record import Phase, phase_rows
 from pih.records.outputs import read_provenance
 from pih.scene.config import SceneConfig
-from pih.study.config import GOAL_KEY, is_method_key, plain, upgraded_point
+from pih.study.points import GOAL_KEY, is_method_key, upgraded_point
 
 
 def best_training_rows(rollouts: pd.DataFrame) -> pd.DataFrame:

@@ -204,7 +204,7 @@ def _presence(missing: bool) -> str:
 
 def swept_keys(tree: Path) -> set[str]:
     """The sweep keys of a tree's planning runs (their recorded sweep points, in today's keys)."""
-    from pih.study.config import upgraded_point
+    from pih.study.points import upgraded_point
 
     return {
         key

@@ -395,7 +395,7 @@ def runs_by_point(planning: Path, keys: Iterable[str] = ()) -> dict[str, Path]:
     the draws do not depend on it). Where that would give two runs of one tree the same point
     (a default run beside the same run made by a study that sweeps the key), each keeps its
     own."""
-    from pih.study.config import upgraded_point
+    from pih.study.points import upgraded_point
 
     points = []
     for path in sorted(planning.glob("*/rollouts.parquet")):

@@ -115,7 +115,8 @@ def suite(studies: Iterable[Study], root: Path) -> list[Item]:
     that reaches the insertion branches; 2 iterations where no run's mean inserted), named by
     its method levels."""
     from pih.publishing.published import _sweep_keys, expected_runs, runs_by_point
-    from pih.study.config import is_method_key, load_config
+    from pih.study.config import load_config
+    from pih.study.points import is_method_key
 
     candidates: dict[str, list[tuple[int, str, Item]]] = {}
     for study in studies:
@@ -153,7 +154,7 @@ def suite(studies: Iterable[Study], root: Path) -> list[Item]:
 def _configuration(sections: Mapping[str, Any], point: Mapping[str, Any]) -> dict[str, Any]:
     """A run's resolved sections without the levels of its situation keys (start, seed: every
     sweep key that does not select the method)."""
-    from pih.study.config import is_method_key
+    from pih.study.points import is_method_key
 
     sections = json.loads(canonical_json(sections))
     for dotted in (key for key in point if not is_method_key(key)):
