@@ -159,6 +159,14 @@ def _robustness_rows():
     return pd.DataFrame(rows)
 
 
+def test_deploy_success_without_a_compared_dimension_draws_no_empty_heading():
+    """With no dimension compared, the rows are all runs: no heading row above them."""
+    success = _success_rows()
+    fig = plots.deploy_success_figure(success[success["dimension"] == "all"], _robustness_rows())
+    labels = [t.get_text() for t in fig.axes[0].get_yticklabels()]
+    assert labels == ["bilevel/explored_argmin (n = 2 runs)", "one_level (n = 2 runs)"]
+
+
 def test_deploy_success_rows_name_their_method_and_methods_differ_by_marker():
     fig = plots.deploy_success_figure(_success_rows(), _robustness_rows())
     ax = fig.axes[0]

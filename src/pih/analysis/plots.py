@@ -265,9 +265,10 @@ METHOD_MARKERS = "osD^vP*X"  # deployment figure: one marker per method, besides
 def deploy_success_figure(success: pd.DataFrame, robustness: pd.DataFrame) -> plt.Figure:
     """Deployment success with its 95 % interval over runs, the headline filled: from starts
     offset by the smallest σ redeployed (``robustness``, on the training scene), hollow beside
-    it from the training start (``success``, :func:`pih.analysis.aggregate.ablation_table`'s rows). One
-    bold heading per level of a compared dimension (or ``all runs`` when there is none), one row
-    per method, named with its run count and drawn in its own colour and marker."""
+    it from the training start (``success``, :func:`pih.analysis.aggregate.ablation_table`'s
+    rows). One bold heading per level of a compared dimension (none when there is none: the
+    rows are then all runs), one row per method, named with its run count and drawn in its own
+    colour and marker."""
     compared = compared_rows(success)
     table = compared if len(compared) else success[success["dimension"] == "all"]
     trained_scene = on_training_scene(robustness)
@@ -275,7 +276,8 @@ def deploy_success_figure(success: pd.DataFrame, robustness: pd.DataFrame) -> pl
     offset = trained_scene[trained_scene["start_std_m"] == std]
     groups = list(dict.fromkeys(zip(table["dimension"], table["level"])))
     methods = sorted(table["method"].unique())
-    fig, ax = plt.subplots(figsize=(8, 0.32 * (len(groups) + len(table)) + 1.4))
+    headed = [group for group in groups if group[0] != "all"]
+    fig, ax = plt.subplots(figsize=(8, 0.32 * (len(headed) + len(table)) + 1.4))
     colours = plt.get_cmap("tab10")
     offset_name = f"from starts {1e3 * std:g} mm off" if std else "from offset starts"
     y = 0.0
@@ -283,12 +285,11 @@ def deploy_success_figure(success: pd.DataFrame, robustness: pd.DataFrame) -> pl
     shown: set[str] = set()
     for dimension, level in groups:
         part = table[(table["dimension"] == dimension) & (table["level"] == level)]
-        ticks.append(y)
-        labels.append(
-            "all runs" if dimension == "all" else f"{dimension.rsplit('.', 1)[-1]} = {level}"
-        )
-        headings.append(len(labels) - 1)
-        y -= 1
+        if dimension != "all":
+            ticks.append(y)
+            labels.append(f"{dimension.rsplit('.', 1)[-1]} = {level}")
+            headings.append(len(labels) - 1)
+            y -= 1
         for m, method in enumerate(methods):
             row = part[part["method"] == method]
             if row.empty:
