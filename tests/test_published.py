@@ -740,13 +740,55 @@ def test_a_study_in_parts_takes_current_runs_and_refuses_stale_ones(tmp_path, mo
 def test_every_published_run_has_the_name_its_study_gives_its_point(study):
     """One name per run, whichever study made it: globbing or sorting a study's runs sees one
     pattern (the 12 runs sim_to_real took from the earlier default were named otherwise)."""
-    from pih.publishing.published import _sweep_keys, run_directories, runs_by_point
+    from pih.publishing.published import run_names_by_point, runs_by_point, sweep_keys_of
 
     planning = ROOT / study.directory / "planning"
     if not planning.is_dir():
         pytest.skip(f"no {study.directory} here")
     files = tuple(str(ROOT / f) for f in study.config_files)
-    names = run_directories(files)
-    runs = runs_by_point(planning, _sweep_keys(expected_runs(files)))
+    names = run_names_by_point(files)
+    runs = runs_by_point(planning, sweep_keys_of(expected_runs(files)))
     assert runs
     assert {p.parent.name for k, p in runs.items() if names[k] != p.parent.name} == set()
+
+
+def test_redeploying_published_runs_refuses_bad_input_in_one_line_writing_nothing(
+    tmp_path, monkeypatch
+):
+    """``pih publish --redeploy``: a model error that names no scene key, a published run that
+    is not the study's, or one made by rollout code no longer current is refused before any
+    redeployment is made (the e2e redeployment itself: test_workflow.py)."""
+    from pih.publishing import redeploy
+    from pih.records.outputs import write_table
+    from pih.records.provenance import record
+
+    study, expected = _study_in_parts(
+        tmp_path,
+        "errors",
+        "sweep:\n  planner.start_x_m: [-0.04]\n  planner.goal: [deepest_explored]\n"
+        "robustness:\n  model_error:\n    slippery: {material.frction: 0.5}\n",
+    )
+    point = {"planner.start_x_m": -0.04, "planner.goal": "deepest_explored"}
+    run = tmp_path / study.directory / "planning" / "start_x_m~-0.04_goal~deepest_explored"
+    rows = pd.DataFrame({"phase": ["deploy"], "success": [True]})
+    write_table(rows, run / "rollouts.parquet", record("plan", point=point, config={}), UNITS)
+    files = sorted(run.iterdir())
+
+    def refused(match: str) -> None:
+        with pytest.raises(ValueError, match=match):
+            redeploy.redeploy_published(study, root=tmp_path)
+        assert sorted(run.iterdir()) == files
+
+    refused(r"^robustness\.model_error\.slippery\.material\.frction: no config key 'frction'")
+    (tmp_path / "config" / "errors.yaml").write_text(
+        (tmp_path / "config" / "errors.yaml").read_text().replace("frction", "friction")
+    )
+    refused(r"start_x_m~-0\.04_goal~deepest_explored: its scene config no longer reads")
+    sections = expected[point_key(point)]
+    write_table(rows, run / "rollouts.parquet", record("plan", point=point, config=sections), UNITS)
+    files = sorted(run.iterdir())
+    monkeypatch.setattr(redeploy, "current_hashes", lambda: {"0" * 64})
+    refused(r"rollouts\.parquet: made by other rollout code")
+    stray = tmp_path / study.directory / "planning" / "seed~7" / "rollouts.parquet"
+    write_table(rows, stray, record("plan", point={"planner.seed": 7}, config={}), UNITS)
+    refused(r"seed~7 is not a sweep point of the config")

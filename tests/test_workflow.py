@@ -538,3 +538,39 @@ def test_a_study_published_in_parts_gets_the_workflows_tables(smoke_run, tmp_pat
     assert re.search(r"runs made at `[^`]+` on [^,]+, [-\d]+ \(6 runs\); tables at code", block), (
         block
     )
+
+
+@pytest.mark.slow
+def test_a_published_run_redeployed_in_place_is_the_workflows_redeployment(smoke_run, tmp_path):
+    """``pih publish --redeploy``: a model error the published runs lack is made beside each run,
+    in parts, with the rows and provenance fields the workflow's redeploy job gave it; the runs'
+    own files stay as they were, and the tables come once every run has every redeployment."""
+    from pih.publishing.published import RUN_GLOBS, PublishedStudy
+    from pih.publishing.redeploy import Redeployed, redeploy_published
+
+    shutil.copytree(smoke_run / "config", tmp_path / "config")
+    shutil.copy2(smoke_run / "test-config.yaml", tmp_path)
+    study = PublishedStudy(
+        "smoke", ("config/config.yaml", "test-config.yaml"), "smoke study", RUN_GLOBS, True
+    )
+    made_by_workflow = smoke_run / "results" / "planning"
+    published = tmp_path / study.directory / "planning"
+    for run in sorted(made_by_workflow.glob("*/rollouts.parquet")):
+        for name in ("rollouts.parquet", "redeploy_start_std_m~0.001.parquet"):
+            (published / run.parent.name).mkdir(parents=True, exist_ok=True)
+            shutil.copy2(run.parent / name, published / run.parent.name / name)
+    before = {path: path.read_bytes() for path in published.rglob("*.parquet")}
+    assert redeploy_published(study, root=tmp_path, limit=2) == Redeployed(2, 4)
+    assert not (published / "summary").exists()
+    assert redeploy_published(study, root=tmp_path, workers=2) == Redeployed(4, 0)
+    assert all(path.read_bytes() == data for path, data in before.items())
+    name = "redeploy_model_error~friction_0_5.parquet"
+    for path in sorted(published.glob(f"*/{name}")):
+        theirs = made_by_workflow / path.parent.name / name
+        assert pd.read_parquet(path).equals(pd.read_parquet(theirs))
+        ours, workflow = read_provenance(path), read_provenance(theirs)
+        for field in ("sweep_point", "seeds", "config", "simulator", "seed_key", "model_error"):
+            assert ours[field] == workflow[field], field
+    assert len(list(published.glob(f"*/{name}"))) == 6
+    robustness = pd.read_parquet(published / "summary" / "robustness.parquet")
+    assert "friction_0_5" in set(robustness["model_error"])

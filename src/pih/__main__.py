@@ -33,7 +33,9 @@
   ``published/<study>``, the files README's numbers come from, and regenerate README's results
   for it; refused when RESULTS is not that study's run at this code. The paper-scale and
   sim-to-real studies are published in parts: each call adds the runs RESULTS holds, and the
-  tables are made once all (33, 48) are in;
+  tables are made once all (33, 48) are in. ``--redeploy [--limit N] [--workers N]``: make the
+  redeployments the study's config asks for that its published runs lack (a model error added
+  after them), beside them, at most N in one call; the tables are re-made once all are in;
 - ``pih verify [STUDY_DIR ...]``: whether today's code computes exactly what the code that made
   the published runs computed: both run one suite (each published configuration at one recorded
   run, a few iterations) through their own workflow on this machine, every output column compared
@@ -189,6 +191,18 @@ def main(argv: list[str] | None = None) -> int:
         default="default",
         help="which published study RESULTS is a run of (default: default)",
     )
+    publish.add_argument(
+        "--redeploy",
+        action="store_true",
+        help="instead: redeploy the study's published runs where a redeployment its config asks "
+        "for is missing (e.g. a model error), writing beside them",
+    )
+    publish.add_argument(
+        "--limit", type=int, help="--redeploy: at most this many redeployments in this call"
+    )
+    publish.add_argument(
+        "--workers", type=int, default=1, help="--redeploy: rollout processes per redeployment"
+    )
     equivalent = commands.add_parser(
         "verify",
         help="does today's code compute what made the published runs (run both on one suite)",
@@ -252,8 +266,10 @@ def _run(args: argparse.Namespace) -> int:
 
         return aggregate(args.paths, args.output_dir, args.reference_variant)
     if args.command == "publish":
-        from pih.cli.publish import publish
+        from pih.cli.publish import publish, redeploy_published
 
+        if args.redeploy:
+            return redeploy_published(args.study, args.limit, args.workers)
         return publish(args.results, args.study)
     if args.command == "compare":
         from pih.cli.compare import compare

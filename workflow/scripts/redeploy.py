@@ -1,10 +1,10 @@
 """One planning run's learned policy deployed again: from starts offset by N(0, σ²) in x and y,
 and, for a model error, on a real scene with other settings."""
 
-from pih.config import to_mapping
 from pih.planning.run_record import ROLLOUT_COLUMNS, Phase, RecordedRun, phase_rows
 from pih.records.outputs import write_table
-from pih.study.redeployment import deployment_scene, redeploy
+from pih.study.redeployment import redeploy
+from pih.study.redeployment_record import redeployment_fields
 from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):
@@ -14,16 +14,7 @@ with logged(snakemake.log[0]):
     settings = model_error.get("settings", {})
     table = redeploy(run, start_std_m, model_error=settings)
     provenance = job_provenance(
-        snakemake,
-        "redeploy",
-        point=run.record["sweep_point"],
-        seeds=run.record["seeds"],
-        config={
-            "scene": to_mapping(deployment_scene(run, settings)),
-            "planner": to_mapping(run.redeployment_config(start_std_m)),
-        },
-        simulator=run.record["simulator"],
-        extra={"seed_key": run.record["seed_key"], "model_error": model_error},
+        snakemake, "redeploy", **redeployment_fields(run, start_std_m, model_error)
     )
     write_table(table, snakemake.output.rollouts, provenance, ROLLOUT_COLUMNS)
     deployed = phase_rows(table, Phase.DEPLOY)["success"].mean()

@@ -21,11 +21,7 @@ def publish(results: Path, name: str) -> int:
 
     study = PUBLISHED_STUDIES[name]
     page = Path(study.page)
-    if not page.is_file():
-        print(f"pih publish: run it from the repository's root (no {page} here)", file=sys.stderr)
-        return 1
-    if study.markers[0] not in page.read_text():
-        print(f"pih publish: {page} has no {study.markers[0]} line", file=sys.stderr)
+    if not _page_ready(page, study.markers[0]):
         return 1
     try:
         if study.in_parts:
@@ -43,3 +39,41 @@ def publish(results: Path, name: str) -> int:
     page.write_text(readme_with_results(page.read_text(), block, study))
     print(f"{study.directory}: {copied}; {page}'s results for it")
     return 0
+
+
+def redeploy_published(name: str, limit: int | None, workers: int) -> int:
+    """Make the published study's missing redeployments, at most ``limit``; once all are in,
+    its tables are re-made and its results block regenerated."""
+    from pih.publishing.published import PUBLISHED_STUDIES, readme_with_results, results_block
+    from pih.publishing.redeploy import redeploy_published
+
+    study = PUBLISHED_STUDIES[name]
+    page = Path(study.page)
+    if not _page_ready(page, study.markers[0]):
+        return 1
+    if limit is not None and limit < 1 or workers < 1:
+        print("pih publish: --limit and --workers: expected at least 1", file=sys.stderr)
+        return 1
+    try:
+        done = redeploy_published(study, workers=workers, limit=limit)
+    except (OSError, ValueError) as error:
+        print(f"pih publish: {first_line(error)}", file=sys.stderr)
+        return 1
+    if done.left == 0:
+        page.write_text(
+            readme_with_results(page.read_text(), results_block(study.directory, study), study)
+        )
+    tables = "its tables re-made" if done.left == 0 else "the tables once all are in"
+    print(f"{study.directory}: {done.made} redeployments made, {done.left} still to make; {tables}")
+    return 0
+
+
+def _page_ready(page: Path, marker: str) -> bool:
+    """Whether the study's results page is here (the repository's root) and has its block."""
+    if not page.is_file():
+        print(f"pih publish: run it from the repository's root (no {page} here)", file=sys.stderr)
+        return False
+    if marker not in page.read_text():
+        print(f"pih publish: {page} has no {marker} line", file=sys.stderr)
+        return False
+    return True

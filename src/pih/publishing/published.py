@@ -87,10 +87,10 @@ PUBLISHED_STUDIES = {
             (*PLANNING_GLOBS, "validation/*.*", "whitney/*.parquet"),
         ),
         # The paper's 11 starts on seed 0; the default's seed-0 runs are among its 33, draw
-        # for draw.
+        # for draw. Each run is redeployed under the five model errors too.
         PublishedStudy(
             "paper",
-            ("config/config.yaml", "config/paper.yaml"),
+            ("config/config.yaml", "config/paper.yaml", "config/model_error.yaml"),
             "paper-scale study",
             RUN_GLOBS,
             in_parts=True,
@@ -119,7 +119,7 @@ def expected_runs(config_files: tuple[str, ...]) -> dict[str, dict[str, object]]
     return {point_key(p): resolved_sections(config, p) for p in study_points(config)}
 
 
-def run_directories(config_files: tuple[str, ...]) -> dict[str, str]:
+def run_names_by_point(config_files: tuple[str, ...]) -> dict[str, str]:
     """:func:`point_key` of each sweep point of a study -> the directory its workflow names the
     run with (:func:`pih.study.config.run_names`): a run published into the study takes that
     name, whichever study made it."""
@@ -162,7 +162,7 @@ def stale_reasons(
     is not ``drake`` (default: the installed one)."""
     current = current_hashes() if current is None else current
     drake = drake or importlib.metadata.version("drake")
-    runs = runs_by_point(published / "planning", _sweep_keys(expected))
+    runs = runs_by_point(published / "planning", sweep_keys_of(expected))
     reasons = [f"sweep point {key} is not published" for key in sorted(set(expected) - set(runs))]
     reasons += [
         f"{runs[key].parent.name} is not a sweep point of the config"
@@ -340,7 +340,7 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
     config_files = tuple(str(root / f) for f in study.config_files)
     expected, redeployments = expected_runs(config_files), expected_redeployments(config_files)
     destination = root / study.directory / "planning"
-    keys = _sweep_keys(expected)
+    keys = sweep_keys_of(expected)
     published = runs_by_point(destination, keys)
     ours = {k: p for k, p in runs_by_point(results / "planning", keys).items() if k in expected}
     if not ours:
@@ -366,7 +366,7 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
         more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
         raise ValueError(f"{results}: {reasons[0]}{more}")
     new = {key: path for key, path in finished.items() if key not in published}
-    directories = run_directories(config_files)
+    directories = run_names_by_point(config_files)
     for key, path in new.items():
         files = [path, *(path.parent / name for name in sorted(redeployments))]
         _copy_whole(files, path.parent, destination / directories[key])
@@ -379,12 +379,9 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
 def expected_redeployments(config_files: tuple[str, ...]) -> set[str]:
     """The redeployment files the workflow makes beside every planning run of a study (its
     ``robustness`` section: one per start std, one per model error)."""
-    from pih.study.config import load_config
+    from pih.study.config import load_config, redeployments
 
-    robustness = load_config(list(config_files))["robustness"]
-    return {f"redeploy_start_std_m~{float(std)}.parquet" for std in robustness["start_std_m"]} | {
-        f"redeploy_model_error~{name}.parquet" for name in robustness.get("model_error") or {}
-    }
+    return set(redeployments(load_config(list(config_files))))
 
 
 def runs_by_point(planning: Path, keys: Iterable[str] = ()) -> dict[str, Path]:
@@ -420,7 +417,7 @@ def _fixed_levels(record: Mapping[str, Any], keys: Iterable[str]) -> dict[str, A
     return levels
 
 
-def _sweep_keys(expected: Mapping[str, object]) -> set[str]:
+def sweep_keys_of(expected: Mapping[str, object]) -> set[str]:
     """The sweep keys of a study's :func:`expected_runs`."""
     return {key for point in expected for key in json.loads(point)}
 
@@ -479,7 +476,7 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
     drake = record.get("packages", {}).get("drake", "?")
     made = f"code `{record['code_version']}`, Drake {drake}, {record['created_utc'][:10]}"
     if study.in_parts:
-        made = f"runs made at {_sources(_published_runs(published, study)[1])}; tables at {made}"
+        made = f"runs made at {_sources(published_runs(published, study)[1])}; tables at {made}"
     source = (
         f"The published {study.title} (`{study.directory}/`, {made}); deployment success, 95 % "
         "interval over runs:"
@@ -500,7 +497,7 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
 
 def _in_progress_block(published: Path, study: PublishedStudy) -> str:
     """A study published in parts, before its last run is in: how far it is, and from where."""
-    expected, runs = _published_runs(published, study)
+    expected, runs = published_runs(published, study)
     drake = sorted(
         {read_provenance(p).get("packages", {}).get("drake", "?") for p in runs.values()}
     )
@@ -514,14 +511,14 @@ def _in_progress_block(published: Path, study: PublishedStudy) -> str:
     return "\n\n".join([begin, textwrap.fill(text, 100), end])
 
 
-def _published_runs(
+def published_runs(
     published: Path, study: PublishedStudy
 ) -> tuple[dict[str, dict[str, object]], dict[str, Path]]:
     """A study's :func:`expected_runs` (its configs in the repository that holds ``published``)
     and its published runs by their point in it (:func:`runs_by_point`)."""
     root = Path(published).parents[1]
     expected = expected_runs(tuple(str(root / f) for f in study.config_files))
-    return expected, runs_by_point(published / "planning", _sweep_keys(expected))
+    return expected, runs_by_point(published / "planning", sweep_keys_of(expected))
 
 
 def _sources(runs: Mapping[str, Path]) -> str:

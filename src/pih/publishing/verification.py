@@ -114,7 +114,7 @@ def suite(studies: Iterable[Study], root: Path) -> list[Item]:
     recorded run whose mean inserted earliest, for one iteration past that (the shortest run
     that reaches the insertion branches; 2 iterations where no run's mean inserted), named by
     its method levels."""
-    from pih.publishing.published import _sweep_keys, expected_runs, runs_by_point
+    from pih.publishing.published import expected_runs, runs_by_point, sweep_keys_of
     from pih.study.config import load_config
     from pih.study.points import is_method_key
 
@@ -125,7 +125,7 @@ def suite(studies: Iterable[Study], root: Path) -> list[Item]:
         stds = sorted(float(std) for std in load_config(list(files))["robustness"]["start_std_m"])
         offset = next((std for std in stds if std > 0), stds[0] if stds else None)
         redeployment = f"redeploy_start_std_m~{offset}.parquet" if offset is not None else ""
-        runs = runs_by_point(root / study.directory / "planning", _sweep_keys(expected))
+        runs = runs_by_point(root / study.directory / "planning", sweep_keys_of(expected))
         for key, path in sorted(runs.items()):
             if key not in expected:
                 continue

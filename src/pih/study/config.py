@@ -254,6 +254,24 @@ def robustness_section(config: Mapping[str, Any]) -> RobustnessSection:
     return from_mapping(RobustnessSection, config["robustness"], "robustness")
 
 
+def redeployments(config: Mapping[str, Any]) -> dict[str, tuple[float, dict[str, Any]]]:
+    """The redeployment files the workflow makes beside every planning run (the ``robustness``
+    section: one per start std, one per model error) -> the start std and the model error
+    (``{}``, or its ``name`` and dotted scene ``settings``) each is made with."""
+    section = robustness_section(config)
+    files: dict[str, tuple[float, dict[str, Any]]] = {
+        f"redeploy_start_std_m~{float(std)}.parquet": (float(std), {})
+        for std in section.start_std_m
+    }
+    for name, settings in section.model_error.items():
+        model_error = {"name": name, "settings": dict(settings)}
+        files[f"redeploy_model_error~{name}.parquet"] = (
+            section.model_error_start_std_m,
+            model_error,
+        )
+    return files
+
+
 OWN_SECTIONS = (
     "sweep",
     "variants",
