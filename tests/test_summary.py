@@ -206,3 +206,41 @@ def test_summary_reads_the_first_hydroelastic_variant_and_lists_the_rules_choice
     chosen = chosen_variants(variants)
     assert chosen["variant"].tolist() == ["hydroelastic", "point"]
     assert chosen["r(F_x) (1)"].tolist() == [0.98, 0.5]
+
+
+def test_the_model_error_table_splits_by_a_swept_scene_key_with_pairs_per_level():
+    """A sweep over ``scene.material.friction`` (a new dimension, as a user adds one): each
+    (model error, method) row once per friction level, labelled with it, beside that level's
+    deployment without the error, with the pairs against one-level at that level only."""
+    from pih.analysis.aggregate import robustness_pairs, robustness_table
+    from pih.analysis.summary import model_error_rows
+
+    keys = ["planner.goal", "planner.start_x_m", "scene.material.friction"]
+    rows = []
+    for friction, ours_rate in (("0.3", 1.0), ("0.6", 0.0)):
+        for start in ("-0.04", "-0.03"):
+            for method, rate in (("bilevel/deepest_explored", ours_rate), ("one_level", 0.5)):
+                for error in ("none", "hole_left"):
+                    rows.append(
+                        {
+                            "method": method,
+                            "run": f"{method}{friction}{start}",
+                            "planner.start_x_m": start,
+                            "scene.material.friction": friction,
+                            "start_std_m": 0.001,
+                            "model_error": error,
+                            "deploy_success_rate": rate if error == "none" else rate / 2,
+                        }
+                    )
+    deployments = pd.DataFrame(rows)
+    table = model_error_rows(
+        robustness_table(deployments, keys), robustness_pairs(deployments, keys)
+    ).set_index(["level", "method"])
+    assert len(table) == 4 and (table["dimension"] == "scene.material.friction").all()
+    ours = "bilevel/deepest_explored"
+    assert (table["runs"] == 2).all()
+    assert table.loc[("0.3", ours), "without it"].startswith("1.00 ")
+    assert table.loc[("0.6", ours), "without it"].startswith("0.00 ")
+    pairs = "vs one-level: better / worse / tied"
+    assert table.loc[("0.3", ours), pairs] == "2 / 0 / 0"
+    assert table.loc[("0.6", ours), pairs] == "0 / 2 / 0"

@@ -254,10 +254,29 @@ def robustness_pairs(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.Dat
             parts.append(per_level.assign(level=levels))
     errors = frame[frame["model_error"] != NO_MODEL_ERROR].drop_duplicates(["run", "model_error"])
     for error, part in errors.groupby("model_error"):
-        paired = paired_table(part, sweep_keys)
-        overall = paired[paired["dimension"] == "all"]
-        parts.append(overall.assign(dimension="model_error", level=error))
+        groups = [((), part), *(part.groupby(compared) if compared else [])]
+        for levels, group in groups:
+            paired = paired_table(group, sweep_keys)
+            level = model_error_level(error, level_label(compared[: len(levels)], levels))
+            parts.append(
+                paired[paired["dimension"] == "all"].assign(dimension="model_error", level=level)
+            )
     return pd.concat(parts, ignore_index=True)
+
+
+def level_label(keys: list[str], levels: tuple) -> str:
+    """One joint level of compared dimensions, named by their last path components
+    (``friction = 0.3, goal_tilt = sensed``); empty for none."""
+    return ", ".join(
+        f"{key.rsplit('.', 1)[-1]} = {level}" for key, level in zip(keys, levels, strict=True)
+    )
+
+
+def model_error_level(error: str, label: str) -> str:
+    """The ``level`` of the paired rows under a model error (dimension ``model_error``): the
+    error, pooled over the compared dimensions, or at one joint level of them
+    (:func:`level_label`: the levels do not pool)."""
+    return f"{error}, {label}" if label else error
 
 
 def _with_model_error(deployments: pd.DataFrame) -> pd.DataFrame:

@@ -11,7 +11,15 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from pih.analysis.aggregate import compared_rows, headline_std, offset_level, on_training_scene
+from pih.analysis.aggregate import (
+    ROBUSTNESS_COLUMNS,
+    compared_rows,
+    headline_std,
+    level_label,
+    model_error_level,
+    offset_level,
+    on_training_scene,
+)
 from pih.analysis.run_summary import NO_MODEL_ERROR
 from pih.records.outputs import markdown_table
 from pih.validation.experiment import PAPER_PEARSON_R, PAPER_RELATIVE_ERROR_PCT
@@ -89,27 +97,35 @@ def _interval(rate: float, low: float, high: float) -> str:
 
 
 def model_error_rows(robustness: pd.DataFrame, paired: pd.DataFrame) -> pd.DataFrame:
-    """Per model error (``robustness.model_error``) and method: deployment success on the
-    changed real scene with its interval, beside the same std on the training scene, and
+    """Per model error (``robustness.model_error``), level of the compared dimensions (all runs
+    when there are none: the levels do not pool) and method: deployment success on the changed
+    real scene with its interval, beside the same std on the training scene at that level, and
     against one-level at the same points (paired)."""
     if "model_error" not in robustness:
         return pd.DataFrame()
+    compared = [c for c in robustness.columns if c not in ROBUSTNESS_COLUMNS]
     errors = robustness[robustness["model_error"] != NO_MODEL_ERROR]
     exact = on_training_scene(robustness)
     rows = []
     for _, row in errors.iterrows():
+        at_level = (exact[compared] == row[compared]).all(axis=1)
         same = exact[
-            (exact["method"] == row["method"]) & (exact["start_std_m"] == row["start_std_m"])
+            at_level
+            & (exact["method"] == row["method"])
+            & (exact["start_std_m"] == row["start_std_m"])
         ]
+        label = level_label(compared, tuple(row[compared]))
         pair = paired[
             (paired["dimension"] == "model_error")
-            & (paired["level"] == row["model_error"])
+            & (paired["level"] == model_error_level(row["model_error"], label))
             & (paired["method"] == row["method"])
             & (paired["versus"] == "one_level")
         ]
         rows.append(
             {
                 "model error": row["model_error"],
+                "dimension": ", ".join(compared) or "all",
+                "level": ", ".join(str(level) for level in row[compared]) or "all",
                 "method": row["method"],
                 "runs": row["runs"],
                 "deployed": _interval(
@@ -238,7 +254,8 @@ def summary_markdown(
         else f"""
 Deployed on a real scene that differs from the one the policy was trained on
 (`robustness.model_error`), from the same offset starts: success with its interval over runs,
-the same without the model error, and the pairs against one-level at the same points.
+the same without the model error, and the pairs against one-level at the same points, per level
+of every compared dimension (the levels do not pool).
 
 {markdown_table(errors, "{:.3g}")}
 """
