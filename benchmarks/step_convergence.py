@@ -19,7 +19,10 @@ A setting (the config's scene with ``--set scene.KEY=VALUE`` overrides) PASSES w
 97 % of the set's insertion outcomes agree with the reference **and** the deployment trials,
 replayed at the setting, give every point's paired sign (each rule against one-level, per start
 source) that the reference gives. The last line is machine-readable:
-``flips=F of N vs_reference_ms=0.0625 median_dp2_um=D verdict=PASS|FAIL``.
+``flips=F of N vs_reference_ms=0.0625 median_dp2_um=D verdict=PASS|FAIL``; every rollout's
+outcome and final P2 at the setting, beside the reference's, goes to ``--output`` (default
+``step_check.parquet``) with the verdict, the setting, the code and the CPU in its provenance,
+so a verdict can be examined afterwards.
 ``--half-step`` prints the former check (h against h/2, 97 %) as a diagnostic instead.
 ``--replay FILE`` writes the set's replay at a setting (with the CPU and BLAS kernel in its
 provenance) and ``--against FILE`` replays the set here and compares it with such a file: how far
@@ -34,7 +37,7 @@ paper's rule, ours), drawn without replacement by ``numpy.random.default_rng(0)`
 by (run, iteration, rollout); 240 in all (80 per method). ``--draw-from RUN ...`` redraws it.
 
     python benchmarks/step_convergence.py [--set scene.solver.time_step_s=0.00025] [--workers 2]
-                                          [--rollouts N]
+                                          [--output step_check.parquet] [--rollouts N]
     python benchmarks/step_convergence.py --half-step [--set ...]
     python benchmarks/step_convergence.py --make-reference set|deployments [--workers 2]
     python benchmarks/step_convergence.py --replay default.parquet
@@ -355,10 +358,14 @@ def compare_set(replayed: np.ndarray, reference: pd.DataFrame, label: str) -> tu
     return int(flips.sum()), float(quantiles[0])
 
 
-def check_against_reference(scene: SceneConfig, workers: int, rollouts: int | None = None) -> str:
-    """Replay the set and the deployment trials at ``scene``; the verdict line. ``rollouts``: a
-    quick look at the set's first rollouts and that many deployment trials per (point, source,
-    method), whose verdict is PARTIAL, never PASS."""
+def check_against_reference(
+    scene: SceneConfig, workers: int, output: Path, command: str, rollouts: int | None = None
+) -> str:
+    """Replay the set and the deployment trials at ``scene``; the verdict line, and every
+    rollout's outcome at the setting beside the reference's written to ``output``
+    (:data:`CHECK_COLUMNS`, with the verdict, the setting, the code and the CPU in its
+    provenance). ``rollouts``: a quick look at the set's first rollouts and that many deployment
+    trials per (point, source, method), whose verdict is PARTIAL, never PASS."""
     reference, planner = read_reference("set")
     deployments, _ = read_reference("deployments")
     if rollouts is not None:
@@ -383,7 +390,8 @@ def check_against_reference(scene: SceneConfig, workers: int, rollouts: int | No
     )
 
     expected = deployments["inserted"].to_numpy()
-    deployed = replay_all(deployments, scene, planner, workers)[:, 0] > 0
+    deployed_at = replay_all(deployments, scene, planner, workers)
+    deployed = deployed_at[:, 0] > 0
     reference_signs = paired_signs(deployments, expected)
     signs = paired_signs(deployments, deployed)
     changed = signs[signs != reference_signs]
@@ -401,10 +409,76 @@ def check_against_reference(scene: SceneConfig, workers: int, rollouts: int | No
     verdict = "PASS" if agree >= AGREEMENT and changed.empty else "FAIL"
     if rollouts is not None:
         verdict = "PARTIAL"
-    return (
+    line = (
         f"flips={flips} of {len(reference)} vs_reference_ms={1e3 * REFERENCE_STEP_S:g} "
         f"median_dp2_um={median_dp2_um:.3g} verdict={verdict}"
     )
+    frame = pd.concat(
+        [
+            check_rows("set", reference, replayed),
+            check_rows("deployments", deployments, deployed_at),
+        ],
+        ignore_index=True,
+    )
+    provenance = record(
+        "step_check",
+        config={"scene": to_mapping(scene), "planner": to_mapping(planner)},
+        inputs=list(REFERENCE_PATHS.values()),
+        simulator={"reference_time_step_s": REFERENCE_STEP_S},
+        extra={
+            "command": command,
+            "verdict": line,
+            "set_agreement": agree,
+            "paired_signs_kept": [len(signs) - len(changed), len(signs)],
+            "seconds": round(time.perf_counter() - started),
+        },
+    )
+    write_table(frame, output, provenance, CHECK_COLUMNS)
+    print(f"{output}: {len(frame)} rollouts at the setting beside the reference")
+    return line
+
+
+CHECK_COLUMNS = {
+    "part": ("1", "the rollout's part of the check: set (late training) or deployments"),
+    **{k: UNITS[k] for k in ("run", "method", "point", "source", "iteration", "rollout")},
+    "reference_inserted": ("1", "insertion outcome at the reference step"),
+    "reference_p2_x_m": ("m", "final P2 x at the reference step"),
+    "reference_p2_y_m": ("m", "final P2 y at the reference step"),
+    "inserted": ("1", "insertion outcome at the checked setting"),
+    "p2_x_m": ("m", "final P2 x at the checked setting"),
+    "p2_y_m": ("m", "final P2 y at the checked setting"),
+    "flipped": ("1", "the outcome at the setting differs from the reference's"),
+    "dp2_m": ("m", "|ΔP2|: distance between the final P2 at the setting and at the reference"),
+}
+"""The columns of a check's table: every replayed rollout beside the reference."""
+
+
+def check_rows(part: str, reference: pd.DataFrame, replayed: np.ndarray) -> pd.DataFrame:
+    """One part's rows of a check's table (:data:`CHECK_COLUMNS`): ``replayed`` is
+    :func:`replay_all`'s array of the ``reference`` rows at the checked setting."""
+    inserted = replayed[:, 0] > 0
+    frame = pd.DataFrame(
+        {
+            "part": part,
+            **{
+                k: reference.get(k, pd.Series("", index=reference.index))
+                for k in ("run", "method", "point", "source")
+            },
+            "iteration": reference["iteration"],
+            "rollout": reference["rollout"],
+            "reference_inserted": reference["inserted"].astype(bool),
+            "reference_p2_x_m": reference["p2_x_m"],
+            "reference_p2_y_m": reference["p2_y_m"],
+            "inserted": inserted,
+            "p2_x_m": replayed[:, 1],
+            "p2_y_m": replayed[:, 2],
+        }
+    )
+    frame["flipped"] = frame["inserted"] != frame["reference_inserted"]
+    frame["dp2_m"] = np.hypot(
+        frame["p2_x_m"] - frame["reference_p2_x_m"], frame["p2_y_m"] - frame["reference_p2_y_m"]
+    )
+    return frame.reset_index(drop=True)
 
 
 def replay_set(scene: SceneConfig, workers: int, output: Path, command: str) -> None:
@@ -472,6 +546,13 @@ def main() -> int:
     mode.add_argument("--replay", type=Path, metavar="FILE", help="write the set's replay here")
     mode.add_argument("--against", type=Path, metavar="FILE", help="compare with such a replay")
     parser.add_argument(
+        "--output",
+        type=Path,
+        default=Path("step_check.parquet"),
+        help="the check's table: every rollout at the setting beside the reference "
+        "(default step_check.parquet)",
+    )
+    parser.add_argument(
         "--rollouts",
         type=int,
         metavar="N",
@@ -510,7 +591,8 @@ def main() -> int:
     elif args.half_step:
         print(check_against_half_step(scene, args.workers))
     else:
-        print(check_against_reference(scene, args.workers, args.rollouts))
+        command = shlex.join(["python", *sys.argv])
+        print(check_against_reference(scene, args.workers, args.output, command, args.rollouts))
     return 0
 
 

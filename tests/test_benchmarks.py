@@ -11,6 +11,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -47,8 +48,11 @@ def test_every_benchmark_script_imports(name):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(TINY))
-def test_every_benchmark_script_runs_at_a_tiny_setting(name):
+def test_every_benchmark_script_runs_at_a_tiny_setting(name, tmp_path):
     arguments, last_line = TINY[name]
+    check = tmp_path / "step_check.parquet"
+    if name == "step_convergence":
+        arguments = [*arguments, "--output", str(check)]
     result = subprocess.run(
         [sys.executable, f"benchmarks/{name}.py", *arguments],
         cwd=ROOT,
@@ -59,3 +63,14 @@ def test_every_benchmark_script_runs_at_a_tiny_setting(name):
     )
     assert result.returncode == 0, result.stderr[-3000:]
     assert re.search(last_line, result.stdout.strip().splitlines()[-1]), result.stdout[-2000:]
+    if name == "step_convergence":
+        # The verdict as data: every replayed rollout beside the reference, the verdict with it.
+        from pih.records.outputs import read_provenance
+
+        table = pd.read_parquet(check)
+        assert table["part"].value_counts().to_dict() == {"deployments": 24, "set": 1}
+        assert (table["flipped"] == (table["inserted"] != table["reference_inserted"])).all()
+        provenance = read_provenance(check)
+        assert provenance["verdict"] == result.stdout.strip().splitlines()[-1]
+        assert provenance["config"]["scene"]["solver"]["time_step_s"] == 0.002
+        assert provenance["machine"]["cpu"]
