@@ -629,7 +629,7 @@ def test_planner_doc_quotes_where_the_papers_rule_lost():
     for run in runs:
         record = pd.read_parquet(run / "rollouts.parquet")
         trials = pd.concat(
-            [record, *(pd.read_parquet(f) for f in run.glob("redeploy_*.parquet"))]
+            [record, *(pd.read_parquet(f) for f in run.glob("redeploy_start_std_m~*.parquet"))]
         ).query("phase == 'deploy'")
         assert not trials["success"].any()
         goals = record.query("phase == 'train'").groupby("iteration")["goal_y_m"].first()
@@ -792,3 +792,48 @@ def test_redeploying_published_runs_refuses_bad_input_in_one_line_writing_nothin
     stray = tmp_path / study.directory / "planning" / "seed~7" / "rollouts.parquet"
     write_table(rows, stray, record("plan", point={"planner.seed": 7}, config={}), UNITS)
     refused(r"seed~7 is not a sweep point of the config")
+
+
+def test_the_model_error_prose_and_table_quote_the_paper_scale_study():
+    """README's model-error sentence and docs/planner.md's table come from the paper-scale
+    study's tables: trials inserted over the five errors per method, each rule's pairs against
+    one-level under every error (fewest wins, largest p), the error that cost ours most."""
+    from pih.analysis.summary import model_error_rows
+    from pih.records.outputs import markdown_table
+
+    summary = ROOT / PAPER.directory / "planning" / "summary"
+    robustness = pd.read_parquet(summary / "robustness.parquet")
+    paired = pd.read_parquet(summary / "paired.parquet")
+    errors = robustness[robustness["model_error"] != "none"]
+    assert errors["model_error"].nunique() == 5
+    inserted = (errors["deploy_success_rate"] * errors["runs"] * 10).groupby(errors["method"]).sum()
+    total = int(errors.groupby("method")["runs"].sum().iloc[0] * 10)
+    ours, theirs, one = "bilevel/deepest_explored", "bilevel/explored_argmin", "one_level"
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    assert (
+        f"inserted in {inserted[ours]:.0f} of {total} trials (ours), {inserted[theirs]:.0f} of "
+        f"{total} (the paper's rule) and {inserted[one]:.0f} of {total} (one-level)" in readme
+    )
+    against = paired[(paired["dimension"] == "model_error") & (paired["versus"] == one)]
+    assert (against["better"] > against["worse"]).all() and len(against) == 10
+    runs = int(errors["runs"].iloc[0])
+    wins = sorted(set(against["better"]))
+    assert (
+        f"each rule at {' or '.join(map(str, wins))} of the {runs} starts "
+        f"(p ≤ {against['sign_test_p'].max():.3g})" in readme
+    )
+    ours_rows = errors[errors["method"] == ours].set_index("model_error")
+    worst = ours_rows["deploy_success_rate"].idxmin()
+    trained = robustness[
+        (robustness["method"] == ours)
+        & (robustness["model_error"] == "none")
+        & (robustness["start_std_m"] == 0.001)
+    ]
+    assert (
+        f"(`{worst}`: {ours_rows.loc[worst, 'deploy_success_rate']:.2f} against "
+        f"{trained['deploy_success_rate'].iloc[0]:.2f} without it" in readme
+    )
+    table = markdown_table(
+        model_error_rows(robustness, paired).drop(columns=["dimension", "level"]), "{:.3g}"
+    )
+    assert table.strip() in (ROOT / "docs" / "planner.md").read_text()
