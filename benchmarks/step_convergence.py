@@ -64,14 +64,14 @@ import pyarrow.parquet as pq
 from pih.analysis.pooling import REDEPLOY_PATTERNS
 from pih.config import ConfigError, from_mapping, to_mapping
 from pih.planning.config import ONE_LEVEL, PlannerConfig
-from pih.planning.planner import Planner, RolloutWorkers
-from pih.planning.run_record import RecordedRun, recorded_rollout, succeeded
+from pih.planning.run_record import RecordedRun
 from pih.publishing.equivalence import current_hashes
 from pih.records.outputs import read_provenance, write_table
 from pih.records.provenance import package_versions, record
 from pih.scene.config import SceneConfig
 from pih.scene.overrides import scene_settings, scene_with
 from pih.study.config import load_config
+from pih.study.replay import at_step, replay_rows
 
 HERE = Path(__file__).parent
 SET_PATH = HERE / "step_convergence_set.parquet"
@@ -203,32 +203,6 @@ def read_set(path: Path) -> tuple[pd.DataFrame, PlannerConfig]:
     return pd.read_parquet(path), planner
 
 
-def replay_all(
-    rows: pd.DataFrame, scene: SceneConfig, planner_config: PlannerConfig, workers: int
-) -> np.ndarray:
-    """Per row: (inserted as the ``success`` column defines it, final P2 x, final P2 y)."""
-    planner = Planner.from_configs(scene, planner_config)
-    rollouts = [recorded_rollout(row) for _, row in rows.iterrows()]
-    with RolloutWorkers(planner, workers) as pool:
-        traces = [trace for trace, _ in pool.evaluate(rollouts)]
-    tolerance = planner_config.success_tolerance_m
-    holes = [
-        planner.scene.hole_pose if r.simulated_hole is None else r.simulated_hole for r in rollouts
-    ]
-    return np.array(
-        [
-            (succeeded(t, hole, tolerance), *t.q_peg_bottom[-1][:2])
-            for t, hole in zip(traces, holes, strict=True)
-        ],
-        dtype=float,
-    )
-
-
-def at_step(scene: SceneConfig, step_s: float) -> SceneConfig:
-    """The scene at ``step_s``, its divergence retry at half of it (as the study's setting)."""
-    return scene.replace(solver__time_step_s=step_s, solver__retry_time_step_s=step_s / 2)
-
-
 def paired_signs(rows: pd.DataFrame, inserted: np.ndarray) -> pd.Series:
     """sign(rule − one-level) of the deployment success rate, per (point, source, rule)."""
     rates = (
@@ -258,7 +232,7 @@ def make_reference(part: str, scene: SceneConfig, workers: int, command: str) ->
         rows, planner = deployment_trials(runs)
         inputs = runs
     started = time.perf_counter()
-    reference = replay_all(rows, at_step(scene, REFERENCE_STEP_S), planner, workers)
+    reference = replay_rows(rows, at_step(scene, REFERENCE_STEP_S), planner, workers)
     frame = rows.assign(
         inserted=reference[:, 0] > 0, p2_x_m=reference[:, 1], p2_y_m=reference[:, 2]
     )
@@ -266,13 +240,13 @@ def make_reference(part: str, scene: SceneConfig, workers: int, command: str) ->
     if part == "set":
         outcomes = [frame["inserted"].to_numpy()]
         for step in COARSER_STEPS_S:
-            coarse = replay_all(rows, at_step(scene, step), planner, workers)[:, 0] > 0
+            coarse = replay_rows(rows, at_step(scene, step), planner, workers)[:, 0] > 0
             frame[coarse_column(step)[0]] = coarse
             outcomes.append(coarse)
         varies = np.any(np.array(outcomes) != outcomes[0], axis=0)
         confirmed = np.ones(len(rows), dtype=bool)
         if varies.any():
-            fine = replay_all(rows[varies], at_step(scene, CONFIRM_STEP_S), planner, workers)
+            fine = replay_rows(rows[varies], at_step(scene, CONFIRM_STEP_S), planner, workers)
             confirmed[varies] = (fine[:, 0] > 0) == frame["inserted"].to_numpy()[varies]
         frame = frame.assign(varies=varies, confirmed=confirmed)
         simulator["confirm_time_step_s"] = CONFIRM_STEP_S
@@ -379,7 +353,7 @@ def check_against_reference(
     )
     step_ms = 1e3 * scene.solver.time_step_s
     started = time.perf_counter()
-    replayed = replay_all(reference, scene, planner, workers)
+    replayed = replay_rows(reference, scene, planner, workers)
     seconds = time.perf_counter() - started
     print(f"{len(reference)} set rollouts at {step_ms:g} ms ({seconds:.0f} s, {workers} workers)")
     flips, median_dp2_um = compare_set(replayed, reference, f"{step_ms:g} ms")
@@ -390,7 +364,7 @@ def check_against_reference(
     )
 
     expected = deployments["inserted"].to_numpy()
-    deployed_at = replay_all(deployments, scene, planner, workers)
+    deployed_at = replay_rows(deployments, scene, planner, workers)
     deployed = deployed_at[:, 0] > 0
     reference_signs = paired_signs(deployments, expected)
     signs = paired_signs(deployments, deployed)
@@ -485,7 +459,7 @@ def replay_set(scene: SceneConfig, workers: int, output: Path, command: str) -> 
     """The set replayed at ``scene``, written with its provenance (the CPU and BLAS kernel
     among it), to compare with a replay elsewhere (``--against``)."""
     rows, planner = read_set(SET_PATH)
-    replayed = replay_all(rows, scene, planner, workers)
+    replayed = replay_rows(rows, scene, planner, workers)
     frame = rows.assign(inserted=replayed[:, 0] > 0, p2_x_m=replayed[:, 1], p2_y_m=replayed[:, 2])
     provenance = record(
         "step_set_replay",
@@ -507,7 +481,7 @@ def check_against_replay(scene: SceneConfig, workers: int, against: Path) -> str
     differences = scene_differences(to_mapping(scene), made["config"]["scene"])
     if differences:
         raise SystemExit(f"{against} was replayed at another setting: {'; '.join(differences)}")
-    replayed = replay_all(reference, scene, planner, workers)
+    replayed = replay_rows(reference, scene, planner, workers)
     flips, median_dp2_um = compare_set(replayed, reference, "this machine")
     return f"flips={flips} of {len(reference)} vs={against} median_dp2_um={median_dp2_um:.3g}"
 
@@ -517,7 +491,7 @@ def check_against_half_step(scene: SceneConfig, workers: int) -> str:
     rows, planner = read_set(SET_PATH)
     step = scene.solver.time_step_s
     outcomes = {
-        name: replay_all(rows, at_step(scene, h), planner, workers)
+        name: replay_rows(rows, at_step(scene, h), planner, workers)
         for name, h in (("h", step), ("h/2", step / 2))
     }
     inserted = {name: o[:, 0] > 0 for name, o in outcomes.items()}

@@ -545,20 +545,10 @@ def test_a_published_run_redeployed_in_place_is_the_workflows_redeployment(smoke
     """``pih publish --redeploy``: a model error the published runs lack is made beside each run,
     in parts, with the rows and provenance fields the workflow's redeploy job gave it; the runs'
     own files stay as they were, and the tables come once every run has every redeployment."""
-    from pih.publishing.published import RUN_GLOBS, PublishedStudy
     from pih.publishing.redeploy import Redeployed, redeploy_published
 
-    shutil.copytree(smoke_run / "config", tmp_path / "config")
-    shutil.copy2(smoke_run / "test-config.yaml", tmp_path)
-    study = PublishedStudy(
-        "smoke", ("config/config.yaml", "test-config.yaml"), "smoke study", RUN_GLOBS, True
-    )
+    study, published = _published_smoke_study(smoke_run, tmp_path)
     made_by_workflow = smoke_run / "results" / "planning"
-    published = tmp_path / study.directory / "planning"
-    for run in sorted(made_by_workflow.glob("*/rollouts.parquet")):
-        for name in ("rollouts.parquet", "redeploy_start_std_m~0.001.parquet"):
-            (published / run.parent.name).mkdir(parents=True, exist_ok=True)
-            shutil.copy2(run.parent / name, published / run.parent.name / name)
     before = {path: path.read_bytes() for path in published.rglob("*.parquet")}
     assert redeploy_published(study, root=tmp_path, limit=2) == Redeployed(2, 4)
     assert not (published / "summary").exists()
@@ -574,3 +564,52 @@ def test_a_published_run_redeployed_in_place_is_the_workflows_redeployment(smoke
     assert len(list(published.glob(f"*/{name}"))) == 6
     robustness = pd.read_parquet(published / "summary" / "robustness.parquet")
     assert "friction_0_5" in set(robustness["model_error"])
+
+
+def _published_smoke_study(smoke_run: Path, root: Path) -> tuple:
+    """The smoke study's runs published under ``root`` as a study in parts (each run's record
+    and its offset redeployment, no model error), and its planning directory."""
+    from pih.publishing.published import RUN_GLOBS, PublishedStudy
+
+    shutil.copytree(smoke_run / "config", root / "config")
+    shutil.copy2(smoke_run / "test-config.yaml", root)
+    study = PublishedStudy(
+        "smoke", ("config/config.yaml", "test-config.yaml"), "smoke study", RUN_GLOBS, True
+    )
+    published = root / study.directory / "planning"
+    for run in sorted((smoke_run / "results" / "planning").glob("*/rollouts.parquet")):
+        for name in ("rollouts.parquet", "redeploy_start_std_m~0.001.parquet"):
+            (published / run.parent.name).mkdir(parents=True, exist_ok=True)
+            shutil.copy2(run.parent / name, published / run.parent.name / name)
+    return study, published
+
+
+@pytest.mark.slow
+def test_published_deployment_trials_replayed_at_their_own_step_are_the_recorded_ones(
+    smoke_run, tmp_path, monkeypatch
+):
+    """``pih publish --replay-step``: every deployment trial of each published run (both
+    policies, from the training start and from offset starts), replayed at the run's own step,
+    ends exactly as recorded: the path that replays them at the reference step changes nothing
+    but the step. In parts; a part of other rollout code is refused, never mixed in."""
+    from pih.publishing import reference_step
+
+    study, published = _published_smoke_study(smoke_run, tmp_path)
+    step = SMOKE["scene"]["solver"]["time_step_s"]
+    name = reference_step.replay_name(step)
+    done = reference_step.replay_published(study, step, root=tmp_path, limit=4, workers=2)
+    assert done == reference_step.Replayed(4, 2)
+    assert reference_step.replay_published(study, step, root=tmp_path) == reference_step.Replayed(
+        2, 0
+    )
+    deploy_trials = SMOKE["planner"]["deploy_trials"]
+    for path in sorted(published.glob(f"*/{name}")):
+        table = pd.read_parquet(path)
+        assert len(table) == 2 * 2 * deploy_trials  # 2 policies x (training start, offset starts)
+        assert set(table["source"]) == {"training start", "start_std_m~0.001"}
+        assert not table["flipped"].any() and (table["dp2_m"] == 0).all()
+        assert read_provenance(path)["simulator"]["time_step_s"] == step
+    assert len(list(published.glob(f"*/{name}"))) == 6
+    monkeypatch.setattr(reference_step, "current_hashes", lambda: {"0" * 64})
+    with pytest.raises(ValueError, match="made by other rollout code"):
+        reference_step.replay_published(study, step, root=tmp_path)

@@ -35,7 +35,10 @@
   sim-to-real studies are published in parts: each call adds the runs RESULTS holds, and the
   tables are made once all (33, 48) are in. ``--redeploy [--limit N] [--workers N]``: make the
   redeployments the study's config asks for that its published runs lack (a model error added
-  after them), beside them, at most N in one call; the tables are re-made once all are in;
+  after them), beside them, at most N in one call; the tables are re-made once all are in.
+  ``--replay-step [STEP_S] [--limit N] [--workers N]``: every deployment trial of the study's
+  published runs replayed at STEP_S (default 6.25e-05 s, the step check's reference), one file
+  per run beside it, at most N runs in one call;
 - ``pih verify [STUDY_DIR ...]``: whether today's code computes exactly what the code that made
   the published runs computed: both run one suite (each published configuration at one recorded
   run, a few iterations) through their own workflow on this machine, every output column compared
@@ -198,10 +201,19 @@ def main(argv: list[str] | None = None) -> int:
         "for is missing (e.g. a model error), writing beside them",
     )
     publish.add_argument(
-        "--limit", type=int, help="--redeploy: at most this many redeployments in this call"
+        "--replay-step",
+        type=float,
+        nargs="?",
+        const=6.25e-5,
+        metavar="STEP_S",
+        help="instead: replay every deployment trial of the study's published runs at STEP_S "
+        "(default 6.25e-05, the step check's reference), a file beside each run",
     )
     publish.add_argument(
-        "--workers", type=int, default=1, help="--redeploy: rollout processes per redeployment"
+        "--limit", type=int, help="--redeploy, --replay-step: at most this many in this call"
+    )
+    publish.add_argument(
+        "--workers", type=int, default=1, help="--redeploy, --replay-step: rollout processes"
     )
     equivalent = commands.add_parser(
         "verify",
@@ -266,10 +278,12 @@ def _run(args: argparse.Namespace) -> int:
 
         return aggregate(args.paths, args.output_dir, args.reference_variant)
     if args.command == "publish":
-        from pih.cli.publish import publish, redeploy_published
+        from pih.cli.publish import publish, redeploy_published, replay_published
 
         if args.redeploy:
             return redeploy_published(args.study, args.limit, args.workers)
+        if args.replay_step is not None:
+            return replay_published(args.study, args.replay_step, args.limit, args.workers)
         return publish(args.results, args.study)
     if args.command == "compare":
         from pih.cli.compare import compare

@@ -68,6 +68,28 @@ def redeploy_published(name: str, limit: int | None, workers: int) -> int:
     return 0
 
 
+def replay_published(name: str, step_s: float, limit: int | None, workers: int) -> int:
+    """Replay the published study's deployment trials at ``step_s``, at most ``limit`` runs."""
+    from pih.publishing.published import PUBLISHED_STUDIES
+    from pih.publishing.reference_step import replay_published
+
+    study = PUBLISHED_STUDIES[name]
+    if limit is not None and limit < 1 or workers < 1 or not 0 < step_s <= 2e-3:
+        print(
+            "pih publish: --limit and --workers: expected at least 1; --replay-step: a step "
+            "in (0, 0.002] s",
+            file=sys.stderr,
+        )
+        return 1
+    try:
+        done = replay_published(study, step_s, workers=workers, limit=limit)
+    except (OSError, ValueError) as error:
+        print(f"pih publish: {first_line(error)}", file=sys.stderr)
+        return 1
+    print(f"{study.directory}: {done.made} runs replayed at {step_s:g} s, {done.left} still to go")
+    return 0
+
+
 def _page_ready(page: Path, marker: str) -> bool:
     """Whether the study's results page is here (the repository's root) and has its block."""
     if not page.is_file():
