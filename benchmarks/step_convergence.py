@@ -66,6 +66,7 @@ from pih.config import ConfigError, from_mapping, to_mapping
 from pih.planning.config import ONE_LEVEL, PlannerConfig
 from pih.planning.run_record import RecordedRun
 from pih.publishing.equivalence import current_hashes
+from pih.publishing.reference_step import REFERENCE_STEP_S
 from pih.records.outputs import read_provenance, write_table
 from pih.records.provenance import package_versions, record
 from pih.scene.config import SceneConfig
@@ -82,7 +83,6 @@ REFERENCE_PATHS = {
 STEP_STARTS = ("-0.04", "-0.038", "-0.034", "-0.03")
 SET_SIZE = 240
 AGREEMENT = 0.97
-REFERENCE_STEP_S = 6.25e-5
 CONFIRM_STEP_S = 3.125e-5
 COARSER_STEPS_S = (5.0e-4, 2.5e-4, 1.25e-4)
 POSES = ("start", "target", "sensed_hole")
@@ -315,7 +315,7 @@ def scene_differences(
 
 
 def compare_set(replayed: np.ndarray, reference: pd.DataFrame, label: str) -> tuple[int, float]:
-    """Print how the set's outcomes at a setting (``replay_all``'s rows) compare with
+    """Print how the set's outcomes at a setting (``replay_rows``'s rows) compare with
     ``reference`` (``inserted``, ``p2_x_m``, ``p2_y_m`` per row); (flips, median |ΔP2| in µm)."""
     inserted, expected = replayed[:, 0] > 0, reference["inserted"].to_numpy()
     flips = inserted != expected
@@ -429,7 +429,7 @@ CHECK_COLUMNS = {
 
 def check_rows(part: str, reference: pd.DataFrame, replayed: np.ndarray) -> pd.DataFrame:
     """One part's rows of a check's table (:data:`CHECK_COLUMNS`): ``replayed`` is
-    :func:`replay_all`'s array of the ``reference`` rows at the checked setting."""
+    :func:`pih.study.replay.replay_rows`' array of the ``reference`` rows at the setting."""
     inserted = replayed[:, 0] > 0
     frame = pd.DataFrame(
         {

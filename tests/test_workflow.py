@@ -550,9 +550,10 @@ def test_a_published_run_redeployed_in_place_is_the_workflows_redeployment(smoke
     study, published = _published_smoke_study(smoke_run, tmp_path)
     made_by_workflow = smoke_run / "results" / "planning"
     before = {path: path.read_bytes() for path in published.rglob("*.parquet")}
-    assert redeploy_published(study, root=tmp_path, limit=2) == Redeployed(2, 4)
+    assert redeploy_published(study, root=tmp_path, limit=2) == Redeployed(2, 4, False)
     assert not (published / "summary").exists()
-    assert redeploy_published(study, root=tmp_path, workers=2) == Redeployed(4, 0)
+    assert redeploy_published(study, root=tmp_path, workers=2) == Redeployed(4, 0, True)
+    assert redeploy_published(study, root=tmp_path) == Redeployed(0, 0, False)  # nothing to do
     assert all(path.read_bytes() == data for path, data in before.items())
     name = "redeploy_model_error~friction_0_5.parquet"
     for path in sorted(published.glob(f"*/{name}")):
@@ -586,7 +587,7 @@ def _published_smoke_study(smoke_run: Path, root: Path) -> tuple:
 
 @pytest.mark.slow
 def test_published_deployment_trials_replayed_at_their_own_step_are_the_recorded_ones(
-    smoke_run, tmp_path, monkeypatch
+    smoke_run, tmp_path
 ):
     """``pih publish --replay-step``: every deployment trial of each published run (both
     policies, from the training start and from offset starts), replayed at the run's own step,
@@ -610,6 +611,16 @@ def test_published_deployment_trials_replayed_at_their_own_step_are_the_recorded
         assert not table["flipped"].any() and (table["dp2_m"] == 0).all()
         assert read_provenance(path)["simulator"]["time_step_s"] == step
     assert len(list(published.glob(f"*/{name}"))) == 6
-    monkeypatch.setattr(reference_step, "current_hashes", lambda: {"0" * 64})
-    with pytest.raises(ValueError, match="made by other rollout code"):
+    # A part replayed elsewhere by another Drake (or other rollout code) is never mixed in.
+    from pih.records.outputs import write_table
+
+    elsewhere = read_provenance(path)
+    elsewhere["packages"]["drake"] = "0.0.0"
+    write_table(pd.read_parquet(path), path, elsewhere, reference_step.COLUMNS)
+    with pytest.raises(ValueError, match=r"replayed by Drake 0\.0\.0, not"):
+        reference_step.replay_published(study, step, root=tmp_path)
+    elsewhere["packages"]["drake"] = importlib.metadata.version("drake")
+    elsewhere["rollout_code_sha256"] = "0" * 64
+    write_table(pd.read_parquet(path), path, elsewhere, reference_step.COLUMNS)
+    with pytest.raises(ValueError, match="replayed by other rollout code"):
         reference_step.replay_published(study, step, root=tmp_path)

@@ -70,6 +70,7 @@ from pih.cli import job
 from pih.cli.common import first_line
 from pih.cli.show import SHOWN_TYPES
 from pih.publishing.compare import R_TOLERANCE
+from pih.publishing.reference_step import REFERENCE_STEP_S
 
 
 def _one_line_errors(command: Callable[[list[str] | None], int]) -> Callable[..., int]:
@@ -194,17 +195,18 @@ def main(argv: list[str] | None = None) -> int:
         default="default",
         help="which published study RESULTS is a run of (default: default)",
     )
-    publish.add_argument(
+    instead = publish.add_mutually_exclusive_group()
+    instead.add_argument(
         "--redeploy",
         action="store_true",
         help="instead: redeploy the study's published runs where a redeployment its config asks "
         "for is missing (e.g. a model error), writing beside them",
     )
-    publish.add_argument(
+    instead.add_argument(
         "--replay-step",
         type=float,
         nargs="?",
-        const=6.25e-5,
+        const=REFERENCE_STEP_S,
         metavar="STEP_S",
         help="instead: replay every deployment trial of the study's published runs at STEP_S "
         "(default 6.25e-05, the step check's reference), a file beside each run",

@@ -51,7 +51,7 @@ def redeploy_published(name: str, limit: int | None, workers: int) -> int:
     page = Path(study.page)
     if not _page_ready(page, study.markers[0]):
         return 1
-    if limit is not None and limit < 1 or workers < 1:
+    if (limit is not None and limit < 1) or workers < 1:
         print("pih publish: --limit and --workers: expected at least 1", file=sys.stderr)
         return 1
     try:
@@ -59,11 +59,11 @@ def redeploy_published(name: str, limit: int | None, workers: int) -> int:
     except (OSError, ValueError) as error:
         print(f"pih publish: {first_line(error)}", file=sys.stderr)
         return 1
-    if done.left == 0:
+    if done.tables:
         page.write_text(
             readme_with_results(page.read_text(), results_block(study.directory, study), study)
         )
-    tables = "its tables re-made" if done.left == 0 else "the tables once all are in"
+    tables = "its tables re-made" if done.tables else "the tables once all are in"
     print(f"{study.directory}: {done.made} redeployments made, {done.left} still to make; {tables}")
     return 0
 
@@ -74,10 +74,12 @@ def replay_published(name: str, step_s: float, limit: int | None, workers: int) 
     from pih.publishing.reference_step import replay_published
 
     study = PUBLISHED_STUDIES[name]
-    if limit is not None and limit < 1 or workers < 1 or not 0 < step_s <= 2e-3:
+    if (limit is not None and limit < 1) or workers < 1:
+        print("pih publish: --limit and --workers: expected at least 1", file=sys.stderr)
+        return 1
+    if not 0 < step_s <= 2e-3:
         print(
-            "pih publish: --limit and --workers: expected at least 1; --replay-step: a step "
-            "in (0, 0.002] s",
+            f"pih publish: --replay-step {step_s:g}: expected a step in (0, 0.002] s",
             file=sys.stderr,
         )
         return 1

@@ -376,6 +376,32 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
     return Part(len(new), len(ours) - len(finished), missing)
 
 
+def published_run_reasons(
+    root: Path,
+    expected: Mapping[str, Mapping[str, object]],
+    runs: Mapping[str, Path],
+    current: Collection[str],
+) -> list[str]:
+    """Why published ``runs`` (:func:`published_runs`) may not be worked on in place: a run
+    that is not a sweep point of the config, or one that is not current
+    (:func:`run_stale_reasons`)."""
+    reasons = [
+        f"{runs[key].parent.name} is not a sweep point of the config"
+        for key in sorted(set(runs) - set(expected))
+    ]
+    return reasons + [
+        reason
+        for key in sorted(set(runs) & set(expected))
+        for reason in run_stale_reasons(runs[key], expected[key], root, current)
+    ]
+
+
+def one_line(where: Path, reasons: list[str]) -> str:
+    """The first of ``reasons``, and how many more."""
+    more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
+    return f"{where}: {reasons[0]}{more}"
+
+
 def expected_redeployments(config_files: tuple[str, ...]) -> set[str]:
     """The redeployment files the workflow makes beside every planning run of a study (its
     ``robustness`` section: one per start std, one per model error)."""

@@ -1,6 +1,6 @@
 """Redeployments a study's config asks for that its published runs lack, made in place: a model
-error added to a study after its runs were published (``pih publish --redeploy``). Above the
-planner, which it runs; the rest of publishing imports no Drake."""
+error added to a study after its runs were published (``pih publish --redeploy``). It runs the
+planner, imported only when it does."""
 
 from __future__ import annotations
 
@@ -9,7 +9,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pih.publishing.equivalence import current_hashes
-from pih.publishing.published import PublishedStudy, published_runs, run_stale_reasons
+from pih.publishing.published import (
+    PublishedStudy,
+    one_line,
+    published_run_reasons,
+    published_runs,
+)
 
 
 @dataclass(frozen=True)
@@ -20,6 +25,8 @@ class Redeployed:
     """redeployment files written beside the published runs"""
     left: int
     """redeployments the study's config asks for that its published runs still lack"""
+    tables: bool = False
+    """whether the study's tables were re-made (once every run has every redeployment)"""
 
 
 def redeploy_published(
@@ -50,19 +57,9 @@ def redeploy_published(
     files = redeployments(config)
     expected, runs = published_runs(root / study.directory, study)
     destination = root / study.directory / "planning"
-    current = current_hashes()
-    reasons = [
-        f"{runs[key].parent.name} is not a sweep point of the config"
-        for key in sorted(set(runs) - set(expected))
-    ]
-    reasons += [
-        reason
-        for key in sorted(set(runs) & set(expected))
-        for reason in run_stale_reasons(runs[key], expected[key], root, current)
-    ]
+    reasons = published_run_reasons(root, expected, runs, current_hashes())
     if reasons:
-        more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
-        raise ValueError(f"{destination}: {reasons[0]}{more}")
+        raise ValueError(one_line(destination, reasons))
     todo = [
         (runs[key], name)
         for key in sorted(runs, key=lambda k: runs[k].parent.name)
@@ -79,6 +76,8 @@ def redeploy_published(
         progress(f"{path.parent.name}/{name}")
     made = len(todo[:limit])
     left = len(todo) - made
-    if not left and set(expected) <= set(runs):
+    tables = not left and set(expected) <= set(runs)
+    tables = tables and (made > 0 or not (destination / "summary").is_dir())
+    if tables:
         write_pooled_summary(pool(*find_outputs([destination])), destination / "summary")
-    return Redeployed(made, left)
+    return Redeployed(made, left, tables)

@@ -14,7 +14,12 @@ import numpy as np
 import pandas as pd
 
 from pih.publishing.equivalence import current_hashes
-from pih.publishing.published import PublishedStudy, published_runs, run_stale_reasons
+from pih.publishing.published import (
+    PublishedStudy,
+    one_line,
+    published_run_reasons,
+    published_runs,
+)
 from pih.records.outputs import read_provenance
 
 REFERENCE_STEP_S = 6.25e-5
@@ -43,19 +48,19 @@ def replay_name(step_s: float) -> str:
     return f"replay_time_step_s~{step_s:g}.parquet"
 
 
-def deployment_trials(run: Path) -> pd.DataFrame:
-    """A run's deployment trials (``rollouts.parquet``'s directory): every row of
-    :data:`DEPLOYMENT_PHASES` from the training start and from each offset-start redeployment,
-    ``source`` naming which (on the training scene: model errors are other physics)."""
-    sources = [("training start", run / "rollouts.parquet")]
+def deployment_trials(run: Path, rollouts: pd.DataFrame) -> pd.DataFrame:
+    """A run's deployment trials (``run``: its directory; ``rollouts``: its record's rows):
+    every row of :data:`DEPLOYMENT_PHASES` from the training start and from each offset-start
+    redeployment, ``source`` naming which (on the training scene: model errors are other
+    physics)."""
+    sources = [("training start", rollouts)]
     sources += [
-        (path.stem.removeprefix("redeploy_"), path)
+        (path.stem.removeprefix("redeploy_"), pd.read_parquet(path))
         for path in sorted(run.glob("redeploy_start_std_m~*.parquet"))
     ]
     trials = [
         rows[rows["phase"].isin(DEPLOYMENT_PHASES)].assign(source=source)
-        for source, path in sources
-        if len(rows := pd.read_parquet(path))
+        for source, rows in sources
     ]
     return pd.concat(trials, ignore_index=True)
 
@@ -93,15 +98,7 @@ def replay_published(
     expected, runs = published_runs(root / study.directory, study)
     current, drake = current_hashes(), importlib.metadata.version("drake")
     name = replay_name(step_s)
-    reasons = [
-        f"{runs[key].parent.name} is not a sweep point of the config"
-        for key in sorted(set(runs) - set(expected))
-    ]
-    reasons += [
-        reason
-        for key in sorted(set(runs) & set(expected))
-        for reason in run_stale_reasons(runs[key], expected[key], root, current)
-    ]
+    reasons = published_run_reasons(root, expected, runs, current)
     for path in sorted(path.parent / name for path in runs.values()):
         if path.is_file():
             made = read_provenance(path)
@@ -112,15 +109,14 @@ def replay_published(
             if made["rollout_code_sha256"] not in current:
                 reasons.append(f"{path}: replayed by other rollout code ({made['code_version']})")
     if reasons:
-        more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
-        raise ValueError(f"{root / study.directory}: {reasons[0]}{more}")
+        raise ValueError(one_line(root / study.directory, reasons))
     todo = sorted(
         (path for path in runs.values() if not (path.parent / name).is_file()),
         key=lambda path: path.parent.name,
     )
     for path in todo[:limit]:
         run = RecordedRun.read(path)
-        trials = deployment_trials(path.parent)
+        trials = deployment_trials(path.parent, run.rollouts)
         scene = at_step(run.scene, step_s)
         replayed = replay_rows(trials, scene, run.planner, workers)
         frame = pd.DataFrame(

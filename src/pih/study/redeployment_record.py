@@ -1,6 +1,6 @@
 """What a redeployment file records of itself beside its rows: the provenance fields of a run's
 policy deployed again, alike whether the workflow's redeploy job made it or a published run was
-redeployed in place (:func:`pih.publishing.published.redeploy_published`)."""
+redeployed in place (:func:`pih.publishing.redeploy.redeploy_published`)."""
 
 from __future__ import annotations
 
