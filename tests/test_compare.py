@@ -314,3 +314,36 @@ def test_nothing_to_check_is_not_reproduced(tmp_path):
         run_file(tmp_path / name / "planning" / "start~-0.04" / "rollouts.parquet", -0.04)
     result = compare(tmp_path / "old", tmp_path / "new")
     assert result.checks == [] and result.data_identical and not result.conclusions_hold
+
+
+def test_robustness_rows_at_different_levels_of_a_compared_dimension_stay_apart(tmp_path):
+    """A sim-to-real study's robustness rows are per level of its training simulator: each
+    level's rate is compared with the same level's, none hides another."""
+    from pih.publishing.compare import HEADLINE_TABLES, ROBUSTNESS, headline_differences
+
+    def robustness(root, sensed_rate):
+        table = root / ROBUSTNESS
+        table.parent.mkdir(parents=True)
+        pd.DataFrame(
+            {
+                "method": ["one_level", "one_level"],
+                "planner.simulated_hole": ["true_hole", "sensed_per_run"],
+                "start_std_m": [0.001, 0.001],
+                "model_error": ["none", "none"],
+                "runs": [4, 4],
+                "deploy_success_rate": [0.5, sensed_rate],
+                "deploy_ci_low": [0.2, 0.1],
+                "deploy_ci_high": [0.8, 0.7],
+                "runs_all_inserted": [0, 0],
+            }
+        ).to_parquet(table)
+        return root
+
+    old, new = robustness(tmp_path / "old", 0.3), robustness(tmp_path / "new", 0.4)
+    tables = tuple(t for t in HEADLINE_TABLES if t[0] == ROBUSTNESS)
+    differences, compared = headline_differences(old, new, 1e-9, tables)
+    assert compared == 2 * 5
+    assert [d.what for d in differences] == [
+        "method=one_level, planner.simulated_hole=sensed_per_run, start_std_m=0.001, "
+        "model_error=none: deploy_success_rate"
+    ]

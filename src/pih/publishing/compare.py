@@ -30,6 +30,7 @@ from typing import Any
 
 import pandas as pd
 
+from pih.analysis.aggregate import ROBUSTNESS_COLUMNS
 from pih.analysis.run_summary import NO_MODEL_ERROR
 from pih.publishing.published import runs_by_point
 from pih.records.outputs import read_provenance
@@ -44,11 +45,16 @@ SUCCESS = "planning/summary/success.parquet"
 PAIRED = "planning/summary/paired.parquet"
 VALIDATION = "validation/comparison.parquet"
 
+LEVELS = "<levels>"
+"""In a table's key columns: the levels of the compared dimensions, whichever the table has
+(robustness: its columns beside :data:`pih.analysis.aggregate.ROBUSTNESS_COLUMNS`), so that
+rows at different levels of a sim-to-real study's training simulator stay apart."""
+
 # (table under a results tree, the columns that name a row, the numbers compared)
 HEADLINE_TABLES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
     (
         ROBUSTNESS,
-        ("method", "start_std_m", "model_error"),
+        ("method", LEVELS, "start_std_m", "model_error"),
         ("runs", "deploy_success_rate", "deploy_ci_low", "deploy_ci_high", "runs_all_inserted"),
     ),
     (
@@ -156,6 +162,8 @@ def _same(a: object, b: object, rtol: float) -> bool:
 def _rows(path: Path, keys: tuple[str, ...], numbers: tuple[str, ...]) -> dict[str, dict]:
     frame = pd.read_parquet(path)
     frame = frame.assign(**{k: v for k, v in KEY_DEFAULTS.items() if k in keys and k not in frame})
+    levels = [c for c in frame.columns if c not in ROBUSTNESS_COLUMNS]
+    keys = tuple(k for key in keys for k in (levels if key == LEVELS else [key]))
     present = [c for c in numbers if c in frame.columns]
     return {
         ", ".join(f"{k}={row[k]}" for k in keys if k in frame.columns): {c: row[c] for c in present}
