@@ -344,6 +344,8 @@ def test_robustness_rows_at_different_levels_of_a_compared_dimension_stay_apart(
     differences, compared = headline_differences(old, new, 1e-9, tables)
     assert compared == 2 * 5
     assert [d.what for d in differences] == [
-        "method=one_level, planner.simulated_hole=sensed_per_run, start_std_m=0.001, "
-        "model_error=none: deploy_success_rate"
+        (
+            "method=one_level, planner.simulated_hole=sensed_per_run, start_std_m=0.001, "
+            "model_error=none: deploy_success_rate"
+        )
     ]
