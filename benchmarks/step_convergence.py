@@ -5,15 +5,17 @@ peg either slides in or jams, and a step that is too coarse decides some of thos
 Jam-or-slide settles only below 0.125 ms and not monotonically (docs/simulation.md), so a setting
 is judged against a **fine-step reference**, not against its own half step.
 
-The reference (committed, ``--make-reference``; regenerate it whenever the physics it stands
-for changes: Drake, the scene, the rollout code):
+The reference (committed; regenerate it whenever the physics it stands for changes: Drake, the
+scene, the rollout code):
 
-- ``step_reference_set.parquet``: the step set (below) replayed at 0.0625 ms, and at 0.5, 0.25
-  and 0.125 ms; every rollout whose outcome differs among those four steps is replayed once more
-  at 0.03125 ms, and ``confirmed`` says whether it ends there as at 0.0625 ms.
-- ``step_reference_deployments.parquet``: the deployment trials of the step runs (below) as the
-  study's tables count them (each run's trials from the training start and from starts 1 mm off)
-  replayed at 0.0625 ms.
+- ``step_reference_set.parquet`` (``--make-reference``): the step set (below) replayed at
+  0.0625 ms, and at 0.5, 0.25 and 0.125 ms; every rollout whose outcome differs among those four
+  steps is replayed once more at 0.03125 ms, and ``confirmed`` says whether it ends there as at
+  0.0625 ms.
+- the deployment trials the headline counts: every run of the published paper-scale study, its
+  deployed policy from the training start and from starts 1 mm off (660 trials), replayed at
+  0.0625 ms beside the run (``replay_time_step_s~6.25e-05.parquet``, made by
+  ``pih publish --study paper --replay-step``).
 
 A setting (the config's scene with ``--set scene.KEY=VALUE`` overrides) PASSES when at least
 97 % of the set's insertion outcomes agree with the reference **and** the deployment trials,
@@ -39,7 +41,7 @@ by (run, iteration, rollout); 240 in all (80 per method). ``--draw-from RUN ...`
     python benchmarks/step_convergence.py [--set scene.solver.time_step_s=0.00025] [--workers 2]
                                           [--output step_check.parquet] [--rollouts N]
     python benchmarks/step_convergence.py --half-step [--set ...]
-    python benchmarks/step_convergence.py --make-reference set|deployments [--workers 2]
+    python benchmarks/step_convergence.py --make-reference [--workers 2]
     python benchmarks/step_convergence.py --replay default.parquet
     OPENBLAS_CORETYPE=Sandybridge python benchmarks/step_convergence.py --against default.parquet
     python benchmarks/step_convergence.py --draw-from \
@@ -61,11 +63,11 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from pih.analysis.pooling import REDEPLOY_PATTERNS
 from pih.config import ConfigError, from_mapping, to_mapping
 from pih.planning.config import ONE_LEVEL, PlannerConfig
 from pih.planning.run_record import RecordedRun
 from pih.publishing.equivalence import current_hashes
+from pih.publishing.published import PUBLISHED_STUDIES
 from pih.publishing.reference_step import REFERENCE_STEP_S
 from pih.records.outputs import read_provenance, write_table
 from pih.records.provenance import package_versions, record
@@ -73,13 +75,12 @@ from pih.scene.config import SceneConfig
 from pih.scene.overrides import scene_settings, scene_with
 from pih.study.config import load_config
 from pih.study.replay import at_step, replay_rows
+from pih.study.replay_record import KEYS, deployment_trials, replay_name
 
 HERE = Path(__file__).parent
 SET_PATH = HERE / "step_convergence_set.parquet"
-REFERENCE_PATHS = {
-    "set": HERE / "step_reference_set.parquet",
-    "deployments": HERE / "step_reference_deployments.parquet",
-}
+REFERENCE_PATHS = {"set": HERE / "step_reference_set.parquet"}
+PAPER_DIR = PUBLISHED_STUDIES["paper"].directory
 STEP_STARTS = ("-0.04", "-0.038", "-0.034", "-0.03")
 SET_SIZE = 240
 AGREEMENT = 0.97
@@ -120,7 +121,7 @@ UNITS = {
 
 def step_runs(root: Path = Path()) -> list[Path]:
     """The runs the step check stands on (module docstring): each run's ``rollouts.parquet``."""
-    planning = root / "published" / "paper" / "planning"
+    planning = root / PAPER_DIR / "planning"
     return sorted(
         path
         for start in STEP_STARTS
@@ -168,27 +169,52 @@ def draw_set(paths: list[Path], size: int = SET_SIZE) -> pd.DataFrame:
     return drawn
 
 
-def deployment_trials(paths: list[Path]) -> tuple[pd.DataFrame, PlannerConfig]:
-    """Each run's deployment trials: from the training start (``rollouts.parquet``) and from its
-    redeployed offset starts (``redeploy_start_std_m~*.parquet``), ``source`` naming which and
-    ``point`` the runs paired with it."""
-    trials = []
-    planner_config: PlannerConfig | None = None
-    for path in sorted(paths):
-        run, run_dir = RecordedRun.read(path), path.parent
-        sources = [("training start", run.rollouts)]
-        for redeployed in sorted(run_dir.glob(REDEPLOY_PATTERNS[0])):
-            sources.append((redeployed.stem.removeprefix("redeploy_"), pd.read_parquet(redeployed)))
-        for source, rows in sources:
-            deployed = rows[rows["phase"] == "deploy"]
-            trials.append(
-                deployed.assign(
-                    run=run_dir.name, method=method_of(run), point=point_of(run), source=source
-                )[[*COLUMNS, "point", "source"]]
+def deployment_reference(root: Path = Path()) -> pd.DataFrame:
+    """The deployment trials the headline counts: each published paper-scale run's deployed
+    policy from the training start and from its offset starts, ``source`` naming which and
+    ``point`` the runs paired with it, beside their outcome and final P2 at the reference step
+    from the run's replay file (``pih publish --study paper --replay-step``). Refused (one line)
+    when a run has none, or another Drake replayed it: it then stands for other physics."""
+    planning = root / PAPER_DIR / "planning"
+    runs = sorted(planning.glob("*/rollouts.parquet"))
+    name = replay_name(REFERENCE_STEP_S)
+    missing = [path.parent.name for path in runs if not (path.parent / name).is_file()]
+    if missing or not runs:
+        raise SystemExit(
+            f"{planning}: {len(missing)} of {len(runs)} runs have no {name} (e.g. "
+            f"{(missing or ['no run'])[0]}); pih publish --study paper --replay-step"
+        )
+    drake, trials = package_versions()["drake"], []
+    for path in runs:
+        replay = path.parent / name
+        made = read_provenance(replay)
+        if made["packages"]["drake"] != drake:
+            raise SystemExit(
+                f"{replay}: replayed by Drake {made['packages']['drake']}, not {drake}; "
+                "pih publish --study paper --replay-step"
             )
-        planner_config = planner_config or run.planner
-    assert planner_config is not None
-    return pd.concat(trials, ignore_index=True), planner_config
+        if made["rollout_code_sha256"] not in current_hashes():
+            print(f"{replay}: replayed by other rollout code ({made['code_version']})")
+        run = RecordedRun.read(path)
+        rows = deployment_trials(path.parent, run.rollouts)
+        replayed = pd.read_parquet(replay)
+        if not rows[KEYS].equals(replayed[KEYS]):
+            raise SystemExit(f"{replay}: not the deployment trials {path.parent.name} holds")
+        deployed = (rows["phase"] == "deploy").to_numpy()
+        outcome = replayed.loc[deployed, ["inserted", "p2_x_m", "p2_y_m"]].reset_index(drop=True)
+        rows = rows[deployed].reset_index(drop=True)
+        trials.append(
+            pd.concat(
+                [
+                    rows.assign(run=path.parent.name, method=method_of(run), point=point_of(run))[
+                        [*COLUMNS, "point", "source"]
+                    ],
+                    outcome,
+                ],
+                axis=1,
+            )
+        )
+    return pd.concat(trials, ignore_index=True)
 
 
 def write_set(drawn: pd.DataFrame, path: Path) -> None:
@@ -217,71 +243,61 @@ def paired_signs(rows: pd.DataFrame, inserted: np.ndarray) -> pd.Series:
     return np.sign(rates[rules].sub(rates["one_level"], axis=0)).stack().astype(int)
 
 
-def make_reference(part: str, scene: SceneConfig, workers: int, command: str) -> None:
-    """Replay the set (or the published deployment trials) at the reference step and write it."""
-    if part == "set":
-        rows, planner = read_set(SET_PATH)
-        inputs = [SET_PATH]
-    else:
-        runs = step_runs()
-        if len(runs) != 3 * len(STEP_STARTS):
-            raise SystemExit(
-                f"--make-reference deployments: {len(runs)} of the {3 * len(STEP_STARTS)} step "
-                "runs in published/paper/planning"
-            )
-        rows, planner = deployment_trials(runs)
-        inputs = runs
+def make_reference(scene: SceneConfig, workers: int, command: str) -> None:
+    """Replay the set at the reference step and at the coarser steps, and write it."""
+    rows, planner = read_set(SET_PATH)
     started = time.perf_counter()
     reference = replay_rows(rows, at_step(scene, REFERENCE_STEP_S), planner, workers)
     frame = rows.assign(
         inserted=reference[:, 0] > 0, p2_x_m=reference[:, 1], p2_y_m=reference[:, 2]
     )
-    simulator = {"time_step_s": REFERENCE_STEP_S, "retry_time_step_s": REFERENCE_STEP_S / 2}
-    if part == "set":
-        outcomes = [frame["inserted"].to_numpy()]
-        for step in COARSER_STEPS_S:
-            coarse = replay_rows(rows, at_step(scene, step), planner, workers)[:, 0] > 0
-            frame[coarse_column(step)[0]] = coarse
-            outcomes.append(coarse)
-        varies = np.any(np.array(outcomes) != outcomes[0], axis=0)
-        confirmed = np.ones(len(rows), dtype=bool)
-        if varies.any():
-            fine = replay_rows(rows[varies], at_step(scene, CONFIRM_STEP_S), planner, workers)
-            confirmed[varies] = (fine[:, 0] > 0) == frame["inserted"].to_numpy()[varies]
-        frame = frame.assign(varies=varies, confirmed=confirmed)
-        simulator["confirm_time_step_s"] = CONFIRM_STEP_S
+    outcomes = [frame["inserted"].to_numpy()]
+    for step in COARSER_STEPS_S:
+        coarse = replay_rows(rows, at_step(scene, step), planner, workers)[:, 0] > 0
+        frame[coarse_column(step)[0]] = coarse
+        outcomes.append(coarse)
+    varies = np.any(np.array(outcomes) != outcomes[0], axis=0)
+    confirmed = np.ones(len(rows), dtype=bool)
+    if varies.any():
+        fine = replay_rows(rows[varies], at_step(scene, CONFIRM_STEP_S), planner, workers)
+        confirmed[varies] = (fine[:, 0] > 0) == frame["inserted"].to_numpy()[varies]
+    frame = frame.assign(varies=varies, confirmed=confirmed)
     provenance = record(
-        f"step_reference_{part}",
+        "step_reference_set",
         config={
             "scene": to_mapping(at_step(scene, REFERENCE_STEP_S)),
             "planner": to_mapping(planner),
         },
-        inputs=inputs,
-        simulator=simulator,
+        inputs=[SET_PATH],
+        simulator={
+            "time_step_s": REFERENCE_STEP_S,
+            "retry_time_step_s": REFERENCE_STEP_S / 2,
+            "confirm_time_step_s": CONFIRM_STEP_S,
+        },
         extra={"command": command, "seconds": round(time.perf_counter() - started)},
     )
     units = {**UNITS, **dict(coarse_column(step) for step in COARSER_STEPS_S)}
-    write_table(frame, REFERENCE_PATHS[part], provenance, units)
-    print(f"{REFERENCE_PATHS[part]}: {len(frame)} rollouts, {int(frame['inserted'].sum())} insert")
-    if part == "set":
-        print(
-            f"  {int(varies.sum())} vary among the steps, {int(confirmed[varies].sum())} of them "
-            f"end at {1e3 * CONFIRM_STEP_S:g} ms as at {1e3 * REFERENCE_STEP_S:g} ms"
-        )
+    path = REFERENCE_PATHS["set"]
+    write_table(frame, path, provenance, units)
+    print(f"{path}: {len(frame)} rollouts, {int(frame['inserted'].sum())} insert")
+    print(
+        f"  {int(varies.sum())} vary among the steps, {int(confirmed[varies].sum())} of them "
+        f"end at {1e3 * CONFIRM_STEP_S:g} ms as at {1e3 * REFERENCE_STEP_S:g} ms"
+    )
 
 
-def read_reference(part: str) -> tuple[pd.DataFrame, PlannerConfig]:
+def read_reference() -> tuple[pd.DataFrame, PlannerConfig]:
     """A committed reference and its planner config; refused (one line) when another Drake made
     it, since it then stands for other physics. Rollout code neither today's nor verified
     equivalent to it (:mod:`pih.publishing.equivalence`) is said, not refused: a lever under test
     changes the code, and the reference is what it is judged against."""
-    path = REFERENCE_PATHS[part]
+    path = REFERENCE_PATHS["set"]
     if not path.is_file():
-        raise SystemExit(f"{path}: missing; make it with --make-reference {part}")
+        raise SystemExit(f"{path}: missing; make it with --make-reference")
     provenance = read_provenance(path)
     drake, made_by = package_versions()["drake"], provenance["packages"]["drake"]
     if made_by != drake:
-        raise SystemExit(f"{path}: made by Drake {made_by}, not {drake}; --make-reference {part}")
+        raise SystemExit(f"{path}: made by Drake {made_by}, not {drake}; --make-reference")
     if provenance["rollout_code_sha256"] not in current_hashes():
         print(f"{path}: made by other rollout code ({provenance['code_version']})")
     planner = from_mapping(PlannerConfig, provenance["config"]["planner"], "planner")
@@ -340,8 +356,8 @@ def check_against_reference(
     (:data:`CHECK_COLUMNS`, with the verdict, the setting, the code and the CPU in its
     provenance). ``rollouts``: a quick look at the set's first rollouts and that many deployment
     trials per (point, source, method), whose verdict is PARTIAL, never PASS."""
-    reference, planner = read_reference("set")
-    deployments, _ = read_reference("deployments")
+    reference, planner = read_reference()
+    deployments = deployment_reference()
     if rollouts is not None:
         reference = reference.head(rollouts)
         keys = ["point", "source", "method"]
@@ -397,7 +413,10 @@ def check_against_reference(
     provenance = record(
         "step_check",
         config={"scene": to_mapping(scene), "planner": to_mapping(planner)},
-        inputs=list(REFERENCE_PATHS.values()),
+        inputs=[
+            *REFERENCE_PATHS.values(),
+            *sorted((HERE.parent / PAPER_DIR).glob(f"planning/*/{replay_name(REFERENCE_STEP_S)}")),
+        ],
         simulator={"reference_time_step_s": REFERENCE_STEP_S},
         extra={
             "command": command,
@@ -515,7 +534,9 @@ def main() -> int:
     parser.add_argument("--workers", type=int, default=2)
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument("--half-step", action="store_true", help="the former check: h against h/2")
-    mode.add_argument("--make-reference", choices=sorted(REFERENCE_PATHS))
+    mode.add_argument(
+        "--make-reference", action="store_true", help="replay the set at the reference step"
+    )
     mode.add_argument("--draw-from", nargs="+", type=Path, metavar="ROLLOUTS")
     mode.add_argument("--replay", type=Path, metavar="FILE", help="write the set's replay here")
     mode.add_argument("--against", type=Path, metavar="FILE", help="compare with such a replay")
@@ -556,7 +577,7 @@ def main() -> int:
             print("step_convergence: --make-reference takes the config's scene, no --set")
             return 1
         command = shlex.join(["python", *sys.argv])
-        make_reference(args.make_reference, scene, args.workers, command)
+        make_reference(scene, args.workers, command)
         return 0
     if args.replay:
         replay_set(scene, args.workers, args.replay, shlex.join(["python", *sys.argv]))

@@ -376,7 +376,7 @@ RRD_WRITER = """
 import sys
 import numpy as np
 from pih.records.outputs import write_text
-from pih.analysis.recordings import record_insertion
+from pih.records.recordings import record_insertion
 from pih.scene.trace import Trace
 from pih.scene.config import SceneConfig
 

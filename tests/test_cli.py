@@ -358,8 +358,8 @@ def test_show_reads_every_output_type_with_its_provenance(tmp_path, capsys, tabl
     from test_recordings import _insertion_trace
 
     from pih.analysis import plots
-    from pih.analysis.recordings import record_insertion
     from pih.records.outputs import markdown_table, write_text
+    from pih.records.recordings import record_insertion
     from pih.scene.config import SceneConfig
 
     provenance = record("test", seeds={"noise": 7})

@@ -6,7 +6,7 @@ import pytest
 import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
-from pih.analysis.recordings import SCENE, record_insertion, record_planning
+from pih.records.recordings import SCENE, record_insertion, record_planning
 from pih.scene.config import SceneConfig
 from pih.scene.trace import Trace
 

@@ -51,22 +51,39 @@ def test_the_step_convergence_set_draws_from_the_published_runs(step_convergence
 
 
 @pytest.mark.skipif(not (ROOT / PAPER_DIR).is_dir(), reason="no published paper-scale study here")
-def test_the_step_check_replays_the_deployment_trials_a_study_reports(step_convergence):
-    """The deployments part of the check (``--make-reference deployments``): every run's
-    deployment trials, from the training start and from each redeployment's offset starts, as
-    the study's tables count them."""
-    runs = step_convergence.step_runs(ROOT)
-    trials, planner = step_convergence.deployment_trials(runs)
-    assert planner == RecordedRun.read(runs[0]).planner
+def test_the_step_check_replays_the_deployment_trials_the_headline_counts(step_convergence):
+    """The deployments part of the check: every published paper-scale run's deployed policy,
+    from the training start and from the offset starts, 10 trials each, beside its outcome at
+    the reference step as the run's replay file holds it."""
+    from pih.study.replay_record import replay_name
+
+    trials = step_convergence.deployment_reference(ROOT)
+    runs = sorted((ROOT / PAPER_DIR / "planning").glob("*/rollouts.parquet"))
+    assert trials["run"].nunique() == len(runs) == 33
     per_run = trials.groupby(["run", "source"]).size()
     assert set(per_run.index.get_level_values("source")) == {
         "training start",
         "start_std_m~0.001",
     }
-    assert (per_run == planner.deploy_trials).all() and len(per_run) == 2 * len(runs)
+    assert (per_run == 10).all() and len(per_run) == 2 * len(runs)
+    assert trials.groupby("point")["method"].nunique().eq(3).all()  # every point pairs 3 methods
     nominal = trials[trials["source"] == "training start"].groupby("run")["start_x_m"].first()
     offset = trials[trials["source"] != "training start"]
     assert (offset["start_x_m"] != offset["run"].map(nominal)).all()
+    # The outcomes are the replay's, not the recorded ones.
+    name = replay_name(step_convergence.REFERENCE_STEP_S)
+    replays = pd.concat(pd.read_parquet(p.parent / name).query("phase == 'deploy'") for p in runs)
+    assert trials["inserted"].tolist() == replays["inserted"].tolist()
+    assert (replays["inserted"] != replays["recorded_inserted"]).any()
+
+
+def test_the_check_refuses_missing_replays_in_one_line(step_convergence, tmp_path):
+    """Without every run's replay at the reference, the check stops before replaying anything."""
+    run = tmp_path / PAPER_DIR / "planning" / "start_x_m~-0.04_goal~sensed_hole_seed~0"
+    run.mkdir(parents=True)
+    (run / "rollouts.parquet").write_bytes(b"")
+    with pytest.raises(SystemExit, match=r"1 of 1 runs have no replay_time_step_s~6\.25e-05"):
+        step_convergence.deployment_reference(tmp_path)
 
 
 def test_paired_signs_are_per_point_source_and_rule(step_convergence):
@@ -103,7 +120,7 @@ def test_a_reference_made_by_another_drake_is_refused(step_convergence, tmp_path
     write_table(pd.DataFrame({"inserted": [True]}), path, provenance, {"inserted": ("1", "x")})
     monkeypatch.setitem(step_convergence.REFERENCE_PATHS, "set", path)
     with pytest.raises(SystemExit, match=r"reference.parquet: made by Drake 1\.51\.1, not 1\.58"):
-        step_convergence.read_reference("set")
+        step_convergence.read_reference()
 
 
 def test_the_check_names_what_the_setting_changes(step_convergence):
@@ -121,28 +138,17 @@ def test_the_check_names_what_the_setting_changes(step_convergence):
     ]
 
 
-REFERENCES = ("set", "deployments")
-
-
-@pytest.mark.parametrize("part", REFERENCES)
-def test_the_committed_reference_is_the_set_and_the_published_trials(step_convergence, part):
-    """Each committed reference replays exactly what it claims to, at the reference step, under
-    this Drake: the committed set's rollouts, or the step runs' deployment trials (from the
-    training start and from offset starts)."""
-    path = step_convergence.REFERENCE_PATHS[part]
-    if not path.is_file():
-        pytest.skip(f"{path.name} not made yet (--make-reference {part})")
-    reference, planner = step_convergence.read_reference(part)
+def test_the_committed_reference_is_the_set(step_convergence):
+    """The committed reference replays exactly the committed set's rollouts, at the reference
+    step, under this Drake."""
+    path = step_convergence.REFERENCE_PATHS["set"]
+    reference, planner = step_convergence.read_reference()
     provenance = read_provenance(path)
     assert provenance["simulator"]["time_step_s"] == step_convergence.REFERENCE_STEP_S
     assert provenance["config"]["scene"]["solver"]["time_step_s"] == 6.25e-5
-    if part == "set":
-        rows, set_planner = step_convergence.read_set(step_convergence.SET_PATH)
-        assert set_planner == planner
-        assert (reference["varies"] | reference["confirmed"]).all()
-    else:
-        runs = step_convergence.step_runs(ROOT)
-        rows, _ = step_convergence.deployment_trials(runs)
+    rows, set_planner = step_convergence.read_set(step_convergence.SET_PATH)
+    assert set_planner == planner
+    assert (reference["varies"] | reference["confirmed"]).all()
     keys = [c for c in rows.columns if c != "weights"]
     pd.testing.assert_frame_equal(reference[keys], rows[keys])
     assert all(np.array_equal(a, b) for a, b in zip(reference["weights"], rows["weights"]))

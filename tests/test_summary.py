@@ -9,6 +9,7 @@ from pih.analysis.summary import (
     pearson_table,
     planning_rows,
     relative_error_table,
+    step_pairs,
     summary_markdown,
 )
 
@@ -143,6 +144,54 @@ def test_planning_rows_lead_with_offset_starts_beside_the_papers_claim():
     rows = planning_rows(ablation, _robustness().assign(variant="x"))
     assert set(rows["dimension"]) == {"variant"} and set(rows["level"]) == {"x"}
     assert rows["from starts 1 mm off"].tolist()[0] == "0.80 (0.50–0.95)"
+
+
+def _time_step(runs: int = 10) -> pd.DataFrame:
+    """The deployed policy's success from 1 mm off at the runs' step and at a finer one."""
+    methods = ["bilevel/deepest_explored", "bilevel/explored_argmin", "one_level"]
+    return pd.DataFrame(
+        {
+            "method": methods * 2,
+            "time_step_s": [5e-4] * 3 + [6.25e-5] * 3,
+            "start_std_m": 0.001,
+            "phase": "deploy",
+            "runs": [10, 10, 10, runs, runs, runs],
+            "deploy_success_rate": [0.8, 0.55, 0.25, 0.8, 0.5, 0.2],
+            "deploy_ci_low": [0.5, 0.3, 0.1, 0.5, 0.25, 0.05],
+            "deploy_ci_high": [0.95, 0.8, 0.6, 0.95, 0.75, 0.5],
+        }
+    )
+
+
+def test_the_headline_at_a_finer_step_stands_beside_the_runs_own():
+    """With the trials replayed at a finer step, the headline column names its step and the
+    replayed one follows it; replays of only some runs are said, not shown as a rate."""
+    rows = planning_rows(_success(), _robustness(), _time_step()).set_index("method")
+    columns = rows.columns.tolist()
+    at_coarse, at_fine = "from starts 1 mm off, at 0.5 ms", "from starts 1 mm off, at 0.0625 ms"
+    assert columns.index(at_coarse) + 1 == columns.index(at_fine)
+    assert rows[at_coarse].tolist() == ["0.80 (0.50–0.95)", "0.55 (0.30–0.80)", "0.25 (0.10–0.60)"]
+    assert rows[at_fine].tolist() == ["0.80 (0.50–0.95)", "0.50 (0.25–0.75)", "0.20 (0.05–0.50)"]
+    partial = planning_rows(_success(), _robustness(), _time_step(runs=6))
+    assert set(partial[at_fine]) == {"— (6 of 10 runs replayed)"}
+    # The pairs at each step: the pooled rows from the headline's offset starts, coarse first.
+    pair = {"versus": "one_level", "pairs": 10, "better": 9, "worse": 1, "tied": 0}
+    paired = pd.DataFrame(
+        [
+            {"method": "a", "dimension": "time_step_s", "level": level, **pair}
+            for level in (
+                "training start at 0.0005 s",
+                "starts 0.001 m off at 0.0005 s",
+                "starts 0.001 m off at 6.25e-05 s",
+                "starts 0.001 m off at 6.25e-05 s, friction = 0.3",
+                "starts 0.003 m off at 6.25e-05 s",
+            )
+        ]
+        + [{"method": "a", "dimension": "start_std_m", "level": "0.001", **pair}]
+    )
+    pairs = step_pairs(paired, _robustness())
+    assert pairs["time step"].tolist() == ["0.5 ms", "0.0625 ms"]
+    assert pairs.columns.tolist() == ["time step", "method", *pair]
 
 
 def test_summary_names_the_code_version_and_links_the_tables():

@@ -594,14 +594,27 @@ def test_published_deployment_trials_replayed_at_their_own_step_are_the_recorded
     ends exactly as recorded: the path that replays them at the reference step changes nothing
     but the step. In parts; a part of other rollout code is refused, never mixed in."""
     from pih.publishing import reference_step
+    from pih.study import replay_record
 
     study, published = _published_smoke_study(smoke_run, tmp_path)
     step = SMOKE["scene"]["solver"]["time_step_s"]
-    name = reference_step.replay_name(step)
+    name = replay_record.replay_name(step)
     done = reference_step.replay_published(study, step, root=tmp_path, limit=4, workers=2)
-    assert done == reference_step.Replayed(4, 2)
+    assert done == reference_step.Replayed(4, 2, False)
     assert reference_step.replay_published(study, step, root=tmp_path) == reference_step.Replayed(
-        2, 0
+        2, 0, True
+    )
+    # The tables gain the trials at the replay's step: here the runs' own, so the same rates.
+    summary = published / "summary"
+    at_step = pd.read_parquet(summary / "time_step.parquet")
+    robustness = pd.read_parquet(summary / "robustness.parquet").set_index(
+        ["method", "start_std_m"]
+    )
+    deployed = at_step[at_step["phase"] == "deploy"].set_index(["method", "start_std_m"])
+    assert (deployed["time_step_s"] == step).all() and (deployed["flipped_trials"] == 0).all()
+    pd.testing.assert_series_equal(
+        deployed["deploy_success_rate"],
+        robustness.loc[deployed.index, "deploy_success_rate"],
     )
     deploy_trials = SMOKE["planner"]["deploy_trials"]
     for path in sorted(published.glob(f"*/{name}")):
@@ -616,11 +629,11 @@ def test_published_deployment_trials_replayed_at_their_own_step_are_the_recorded
 
     elsewhere = read_provenance(path)
     elsewhere["packages"]["drake"] = "0.0.0"
-    write_table(pd.read_parquet(path), path, elsewhere, reference_step.COLUMNS)
+    write_table(pd.read_parquet(path), path, elsewhere, replay_record.COLUMNS)
     with pytest.raises(ValueError, match=r"replayed by Drake 0\.0\.0, not"):
         reference_step.replay_published(study, step, root=tmp_path)
     elsewhere["packages"]["drake"] = importlib.metadata.version("drake")
     elsewhere["rollout_code_sha256"] = "0" * 64
-    write_table(pd.read_parquet(path), path, elsewhere, reference_step.COLUMNS)
+    write_table(pd.read_parquet(path), path, elsewhere, replay_record.COLUMNS)
     with pytest.raises(ValueError, match="replayed by other rollout code"):
         reference_step.replay_published(study, step, root=tmp_path)

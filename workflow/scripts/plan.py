@@ -1,11 +1,11 @@
 """One planning run (paper Algorithm 1) at one sweep point, then its deployment trials."""
 
-from pih.analysis.recordings import record_planning
 from pih.config import from_mapping, to_mapping
 from pih.planning.config import PlannerConfig
 from pih.planning.planner import Planner
 from pih.planning.run_record import PATH_COLUMNS, ROLLOUT_COLUMNS
 from pih.records.outputs import write_table
+from pih.records.recordings import record_planning
 from pih.scene.config import SceneConfig
 from pih.study.points import seed_key, variant_overrides
 from pih.workflow.jobs import job_provenance, logged

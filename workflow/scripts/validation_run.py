@@ -1,8 +1,8 @@
 """Quasi-static straight-down insertion in Drake at one offset, in one validation variant (paper §2.4)."""
 
-from pih.analysis.recordings import record_insertion
 from pih.config import from_mapping
 from pih.records.outputs import write_trace
+from pih.records.recordings import record_insertion
 from pih.scene.config import SceneConfig
 from pih.scene.simulation import PegInHoleScene
 from pih.validation.config import ValidationConfig

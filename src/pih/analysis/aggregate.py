@@ -432,6 +432,9 @@ class PlanningTables:
     robustness: pd.DataFrame
     robustness_pairs: pd.DataFrame
     per_run: pd.DataFrame
+    time_step: pd.DataFrame | None = None
+    """success at the runs' own step and at a replay's (:mod:`pih.analysis.time_step`)"""
+    time_step_pairs: pd.DataFrame | None = None
 
 
 def variant_pairs(summaries: pd.DataFrame, sweep_keys: list[str], reference: str) -> pd.DataFrame:

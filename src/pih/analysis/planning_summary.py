@@ -23,6 +23,7 @@ from pih.analysis.aggregate import (
 )
 from pih.analysis.pooling import SOURCE_COLUMNS, PooledRuns
 from pih.analysis.run_summary import BEST_COST_COLUMNS, level_columns
+from pih.analysis.time_step import time_step_columns, with_time_step
 from pih.records.outputs import markdown_table, write_table, write_text
 from pih.records.provenance import record as provenance_record
 
@@ -35,8 +36,8 @@ def write_planning_summary(
     record: dict[str, Any],
 ) -> None:
     """Every summary file of a study's planning runs under ``directory`` (``runs``,
-    ``cost_bands``, ``success``, ``paired``, ``robustness``, ``ablation``, ``per_run``: ``.parquet`` and
-    ``.md``; ``success.csv``; ``fig9_cost_bands.{png,pdf}``, ``fig_deploy_success.png``), each
+    ``cost_bands``, ``success``, ``paired``, ``robustness``, ``ablation``, ``per_run`` and, with
+    replays, ``time_step``: ``.parquet`` and ``.md``; ``success.csv``; ``fig9_cost_bands.{png,pdf}``, ``fig_deploy_success.png``), each
     with the provenance ``record``."""
     directory = Path(directory)
     frames = {
@@ -48,6 +49,8 @@ def write_planning_summary(
         "ablation": (tables.ablation, SUCCESS_COLUMNS),
         "per_run": (tables.per_run, per_run_columns(sweep_keys)),
     }
+    if tables.time_step is not None:
+        frames["time_step"] = (tables.time_step, time_step_columns(sweep_keys))
     for name, (frame, columns) in frames.items():
         write_table(frame, directory / f"{name}.parquet", record, columns)
     robustness = f"{markdown_table(tables.robustness)}\n\n{markdown_table(tables.robustness_pairs)}"
@@ -66,6 +69,10 @@ def write_planning_summary(
             markdown_table(t) for t in [*ablation, tables.variant_pairs] if len(t)
         ),
     }
+    if tables.time_step is not None:
+        markdown["time_step"] = "\n\n".join(
+            markdown_table(t) for t in (tables.time_step, tables.time_step_pairs)
+        )
     for name, text in markdown.items():
         write_text(directory / f"{name}.md", text, record)
     write_text(directory / "success.csv", tables.success.to_csv(index=False))
@@ -92,6 +99,7 @@ def write_pooled_summary(
     tables = planning_tables(
         pooled.runs, pooled.summaries, pooled.deployments, keys, reference_variant
     )
+    tables = with_time_step(tables, pooled.replays, keys)
     record = provenance_record(
         "aggregate", config={"sweep_keys": keys}, inputs=sorted(set(pooled.sources["file"]))
     )

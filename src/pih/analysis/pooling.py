@@ -8,7 +8,9 @@ levels tells them apart, and pair only when they share their random draws. docs/
 
 from __future__ import annotations
 
+import fnmatch
 import itertools
+import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
@@ -24,6 +26,7 @@ from pih.analysis.run_summary import (
     split_keys,
     variant,
 )
+from pih.analysis.time_step import replay_rates
 from pih.config import ConfigError, recorded_config, to_mapping
 from pih.planning.config import ONE_LEVEL, OuterConfig, method_label, recorded_planner, replace
 from pih.records.outputs import read_provenance
@@ -32,6 +35,7 @@ ONE_LEVEL_LABEL = method_label(ONE_LEVEL)
 from pih.planning.run_record import DEPLOYMENT_PHASES, Phase, phase_rows
 from pih.records.provenance import canonical_json, input_sha256
 from pih.scene.config import SceneConfig
+from pih.study import replay_record
 from pih.study.points import GOAL_KEY, OUTER_PREFIX, VARIANT_KEY, is_method_key, upgraded_point
 
 DEPLOY_STD_KEY = "planner.deploy_start_std_m"
@@ -122,46 +126,60 @@ def _flat(mapping: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     return flat
 
 
-def find_outputs(paths: Iterable[str | Path]) -> tuple[list[Path], list[Path]]:
-    """The planning runs (``rollouts.parquet``) and the redeployment rules' files under each
-    directory; a file given itself is a run (``rollouts.parquet``) or a redeployment file (the
-    rule's, or ``pih redeploy --output``'s)."""
-    runs, redeployments = [], []
+def find_outputs(paths: Iterable[str | Path]) -> tuple[list[Path], list[Path], list[Path]]:
+    """The planning runs (``rollouts.parquet``), the redeployment rules' files and the replay
+    files (:mod:`pih.study.replay_record`) under each directory; a file given itself is a run
+    (``rollouts.parquet``), a replay file or a redeployment file (the rule's, or ``pih redeploy
+    --output``'s)."""
+    runs, redeployments, replays = [], [], []
     for path in map(Path, paths):
         if path.is_dir():
             runs += sorted(path.rglob("rollouts.parquet"))
             redeployments += sorted(f for p in REDEPLOY_PATTERNS for f in path.rglob(p))
+            replays += sorted(path.rglob(replay_record.PATTERN))
         elif path.name == "rollouts.parquet":
             runs.append(path)
+        elif fnmatch.fnmatch(path.name, replay_record.PATTERN) and path.is_file():
+            replays.append(path)
         elif path.is_file():
             redeployments.append(path)
         else:
             raise ConfigError(f"{path}: no such file or directory")
     if not runs:
         raise ConfigError(f"no planning runs (rollouts.parquet) under {[str(p) for p in paths]}")
-    return runs, redeployments
+    return runs, redeployments, replays
 
 
 @dataclass
 class PooledRuns:
     """What :func:`pool` gathers: the sweep keys, one best-cost table and one summary row per
-    training (deployed at the headline start std), every deployment at every std, and where
-    each training's rows came from. A training's ``run`` is its headline record's directory."""
+    training (deployed at the headline start std), every deployment at every std, its
+    deployment trials' success at their own step and at each replay's
+    (:func:`pih.analysis.time_step.replay_rates` rows; empty without replays), and where each
+    training's rows came from. A training's ``run`` is its headline record's directory."""
 
     sweep_keys: list[str]
     runs: pd.DataFrame
     summaries: pd.DataFrame
     deployments: pd.DataFrame
     sources: pd.DataFrame
+    replays: pd.DataFrame
 
 
-def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
+def pool(
+    run_files: list[Path],
+    redeploy_files: list[Path],
+    replay_files: list[Path] = (),  # type: ignore[assignment]
+    current_codes: frozenset[str] = frozenset(),
+) -> PooledRuns:
     """Pool planning runs. Records of one training (same settings but the deployment std, same
     seed key) must agree in every training rollout and count once; each training's headline
     record is at the smallest std at which every training has a record; runs may differ only in
     their sweep levels; runs at the same levels but the method's must share their draws (and
-    only those). Redeployments attach to the run they redeployed, found by its data's hash and
-    its directory (the sweep point)."""
+    only those). Redeployments and replays attach to the run they redeployed or replayed, found
+    by its data's hash and its directory (the sweep point); the replays at one step must share
+    their Drake and their rollout code, or each be of code in ``current_codes`` (today's and
+    what it was verified equivalent to), and replay the files beside their run."""
     # In path order, so that which copy heads a training does not depend on the arguments' order.
     records = sorted((RunRecord.read(path) for path in run_files), key=lambda run: str(run.path))
     swept = dict.fromkeys(k for run in records for k in upgraded_point(run.record["sweep_point"]))
@@ -194,7 +212,7 @@ def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
                 rate = _deploy_rate(pd.read_parquet(run.path, columns=["phase", "success"]))
                 deployments.append(_deployment(lead, keys, name[training], run.start_std_m, rate))
     by_hash: dict[str, list[RunRecord]] = {}
-    for run in records if redeploy_files else []:
+    for run in records if redeploy_files or replay_files else []:
         by_hash.setdefault(run.sha256, []).append(run)
     for path in redeploy_files:
         for source, redeployed_std, error, rate in _redeployments(path):
@@ -208,13 +226,71 @@ def pool(run_files: list[Path], redeploy_files: list[Path]) -> PooledRuns:
                 _deployment(lead, keys, name[run.training], redeployed_std, rate, error)
             )
             sources.append(_source(path, name[run.training], redeployed_std, "redeployment"))
+    replays, replay_records = [], []
+    for path in replay_files:
+        record, source = _replay_source(path)
+        run = _redeployed_run(by_hash.get(source[1], []), Path(source[0])) or _outside_run(
+            path, *source
+        )
+        if run.training not in headline:
+            raise ConfigError(f"{path}: replays {run.path}, not one of the pooled trainings")
+        lead = headline[run.training]
+        rates = replay_rates(
+            pd.read_parquet(path),
+            record["simulator"]["time_step_s"],
+            run.settings["scene.solver.time_step_s"],
+        )
+        levels = {key: str(lead.level(key)) for key in split_keys(keys)}
+        replays.append(rates.assign(method=lead.method, run=name[run.training], **levels))
+        replay_records.append((path, record))
+        sources.append(_source(path, name[run.training], math.nan, "replay"))
+    _check_replay_parts(replay_records, current_codes)
     deployments = pd.concat(deployments, ignore_index=True)
     # A training at the same std more than once (a redeployment at a recorded std) counts once:
     # deployment is deterministic given the training and the std.
     deployments = deployments.drop_duplicates(
         ["run", "start_std_m", "model_error"], ignore_index=True
     )
-    return PooledRuns(keys, runs, summaries, deployments, pd.DataFrame(sources))
+    replayed = pd.concat(replays, ignore_index=True) if replays else pd.DataFrame()
+    return PooledRuns(keys, runs, summaries, deployments, pd.DataFrame(sources), replayed)
+
+
+def _replay_source(path: Path) -> tuple[dict[str, Any], tuple[str, str]]:
+    """A replay file's provenance and (the replayed run's recorded path, its data's sha256);
+    refused when a file it replayed no longer holds, beside it, the data it replayed."""
+    record = _provenance(path, replay_record.STEP)
+    for recorded, sha256 in record["inputs"].items():
+        beside = path.parent / Path(recorded).name
+        if not beside.is_file() or input_sha256(beside) != sha256:
+            raise ConfigError(f"{path}: replays {recorded} as it was, not the {beside} beside it")
+    runs = [item for item in record["inputs"].items() if Path(item[0]).name == "rollouts.parquet"]
+    if len(runs) != 1:
+        raise ConfigError(f"{path}: expected one replayed run among its inputs")
+    return record, runs[0]
+
+
+def _check_replay_parts(
+    records: list[tuple[Path, dict[str, Any]]], current_codes: frozenset[str]
+) -> None:
+    """Replays at one step are parts of one measurement: one Drake, and one rollout code or
+    codes all verified current; otherwise they are never mixed."""
+    first: dict[float, tuple[Path, dict[str, Any]]] = {}
+    for path, record in records:
+        step = record["simulator"]["time_step_s"]
+        other_path, other = first.setdefault(step, (path, record))
+        drakes = [r["packages"]["drake"] for r in (other, record)]
+        codes = {r["rollout_code_sha256"] for r in (other, record)}
+        if drakes[0] != drakes[1]:
+            raise ConfigError(
+                f"{path}: replayed by Drake {drakes[1]}, but {other_path} by {drakes[0]}; parts "
+                "of one replay are never mixed"
+            )
+        if len(codes) > 1 and not codes <= current_codes:
+            raise ConfigError(
+                f"{path}: replayed by rollout code {record['code_version']}, {other_path} by "
+                f"{other['code_version']}, and neither is verified equivalent to the other; "
+                "parts of one replay are never mixed"
+            )
 
 
 def _check_same_training(group: list[RunRecord]) -> None:
@@ -415,6 +491,9 @@ SOURCE_COLUMNS: dict[str, tuple[str, str]] = {
     "start_std_m": ("m", "std of its deployment trials' start offset in x and y"),
     "role": (
         "",
-        "its part: summary (headline record), copy, deployment (a twin's) or redeployment",
+        (
+            "its part: summary (headline record), copy, deployment (a twin's), redeployment or "
+            "replay (its trials at another step; NaN std: every std)"
+        ),
     ),
 }

@@ -148,15 +148,21 @@ def model_error_rows(robustness: pd.DataFrame, paired: pd.DataFrame) -> pd.DataF
     return pd.DataFrame(rows)
 
 
-def planning_rows(success: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
+def planning_rows(
+    success: pd.DataFrame, robustness: pd.DataFrame, time_step: pd.DataFrame | None = None
+) -> pd.DataFrame:
     """The headline per method (and per compared level, e.g. an ablation's variants, whose
     levels are different designs that do not pool): deployment success from starts offset by
-    N(0, σ²), a test the learned policy can fail; beside it the nominal deployment, how many runs'
-    nominal trials only repeated a training rollout, and the final mean's deployment."""
+    N(0, σ²), a test the learned policy can fail, and, with the study's replays
+    (:func:`pih.analysis.time_step.time_step_table`), the same trials at the finest step
+    replayed; beside it the nominal deployment, how many runs' nominal trials only repeated a
+    training rollout, and the final mean's deployment."""
     compared = compared_rows(success)
     overall = compared if len(compared) else success[success["dimension"] == "all"]
     robustness = on_training_scene(robustness)
     std = headline_std(robustness)
+    offset = f"from starts {1e3 * std:g} mm off" if std else "from offset starts"
+    replayed = _replayed_headline(time_step, std)
     rows = []
     for _, row in overall.iterrows():
         levels = {"dimension": row["dimension"], "level": row["level"]} if len(compared) else {}
@@ -165,19 +171,33 @@ def planning_rows(success: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFra
             perturbed = perturbed[perturbed[row["dimension"]].astype(str) == str(row["level"])]
         perturbed = perturbed[perturbed["start_std_m"] == std] if std is not None else perturbed[:0]
         off = perturbed.iloc[0] if len(perturbed) else None
+        at_steps = {
+            offset: (
+                _interval(off["deploy_success_rate"], off["deploy_ci_low"], off["deploy_ci_high"])
+                if off is not None
+                else "— (not redeployed)"
+            )
+        }
+        if replayed is not None:
+            coarse, fine, trials = replayed
+            if len(compared):
+                trials = trials[trials[row["dimension"]].astype(str) == str(row["level"])]
+            trials = trials[trials["method"] == row["method"]]
+            at_steps = {
+                f"{offset}, {_ms(coarse)}": at_steps[offset],
+                f"{offset}, {_ms(fine)}": (
+                    _interval(*trials.iloc[0][list(_RATE)])
+                    if len(trials) and trials.iloc[0]["runs"] == row["runs"]
+                    else f"— ({trials['runs'].sum()} of {row['runs']} runs replayed)"
+                ),
+            }
         rows.append(
             {
                 "method": row["method"],
                 **levels,
                 "paper": PAPER_PLANNING.get(row["method"], ""),
                 "runs": row["runs"],
-                f"from starts {1e3 * std:g} mm off" if std else "from offset starts": (
-                    _interval(
-                        off["deploy_success_rate"], off["deploy_ci_low"], off["deploy_ci_high"]
-                    )
-                    if off is not None
-                    else "— (not redeployed)"
-                ),
+                **at_steps,
                 "runs all inserted (offset)": off["runs_all_inserted"] if off is not None else "—",
                 "from the training start": _interval(
                     row["deploy_success_rate"], row["deploy_ci_low"], row["deploy_ci_high"]
@@ -192,6 +212,41 @@ def planning_rows(success: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFra
             }
         )
     return pd.DataFrame(rows)
+
+
+_RATE = ("deploy_success_rate", "deploy_ci_low", "deploy_ci_high")
+
+
+def _ms(step_s: float) -> str:
+    return f"at {1e3 * step_s:g} ms"
+
+
+def _replayed_headline(
+    time_step: pd.DataFrame | None, std: float | None
+) -> tuple[float, float, pd.DataFrame] | None:
+    """The runs' own step, the finest replayed one and the deployed policy's rows there from
+    the headline's offset starts; None without replays."""
+    if time_step is None or std is None:
+        return None
+    steps = sorted(time_step["time_step_s"].unique())
+    rows = time_step[
+        (time_step["time_step_s"] == steps[0])
+        & (time_step["start_std_m"] == std)
+        & (time_step["phase"] == "deploy")
+    ]
+    return steps[-1], steps[0], rows
+
+
+def step_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
+    """The paired comparisons on the headline's offset starts, pooled, at each step the study's
+    trials were simulated at (:func:`pih.analysis.time_step.time_step_pairs`' rows, the runs' own
+    step first), a ``time step`` column naming it."""
+    std = headline_std(on_training_scene(robustness))
+    rows = paired[paired["dimension"] == "time_step_s"]
+    steps = rows["level"].str.extract(rf"^starts {std:g} m off at ([^ ,]+) s$")[0].dropna()
+    table = rows.loc[steps.index].drop(columns=["dimension", "level"])
+    table.insert(0, "time step", [f"{1e3 * float(step):g} ms" for step in steps])
+    return table.reset_index(drop=True)
 
 
 def perturbed_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:

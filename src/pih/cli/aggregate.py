@@ -15,12 +15,13 @@ def aggregate(paths: list[Path], output_dir: Path, reference_variant: str | None
     from pih.analysis.planning_summary import write_pooled_summary
     from pih.analysis.pooling import find_outputs, pool
     from pih.config import ConfigError
+    from pih.publishing.equivalence import current_hashes
 
     if output_dir.exists() and not output_dir.is_dir():
         print(f"pih aggregate: --output-dir {output_dir}: not a directory", file=sys.stderr)
         return 1
     try:
-        pooled = pool(*find_outputs(paths))
+        pooled = pool(*find_outputs(paths), current_codes=current_hashes())
     except ConfigError as error:
         print(f"pih aggregate: {first_line(error)}", file=sys.stderr)
         return 1
@@ -46,5 +47,7 @@ def aggregate(paths: list[Path], output_dir: Path, reference_variant: str | None
         print(overall[["method", "runs", "deploy_success_rate", "deploy_ci_low", "deploy_ci_high"]])
         print(tables.paired[tables.paired["dimension"].isin(["all", "start_std_m", "variant"])])
         print(tables.robustness)
+        if tables.time_step is not None:
+            print(tables.time_step)
     print(output_dir)
     return 0

@@ -69,8 +69,9 @@ def redeploy_published(name: str, limit: int | None, workers: int) -> int:
 
 
 def replay_published(name: str, step_s: float, limit: int | None, workers: int) -> int:
-    """Replay the published study's deployment trials at ``step_s``, at most ``limit`` runs."""
-    from pih.publishing.published import PUBLISHED_STUDIES
+    """Replay the published study's deployment trials at ``step_s``, at most ``limit`` runs;
+    once all are in, its tables are re-made and its results block regenerated."""
+    from pih.publishing.published import PUBLISHED_STUDIES, readme_with_results, results_block
     from pih.publishing.reference_step import replay_published
 
     study = PUBLISHED_STUDIES[name]
@@ -88,7 +89,16 @@ def replay_published(name: str, step_s: float, limit: int | None, workers: int) 
     except (OSError, ValueError) as error:
         print(f"pih publish: {first_line(error)}", file=sys.stderr)
         return 1
-    print(f"{study.directory}: {done.made} runs replayed at {step_s:g} s, {done.left} still to go")
+    if done.tables:
+        page = Path(study.page)
+        page.write_text(
+            readme_with_results(page.read_text(), results_block(study.directory, study), study)
+        )
+    tables = "its tables re-made" if done.tables else "the tables once all are in"
+    print(
+        f"{study.directory}: {done.made} runs replayed at {step_s:g} s, {done.left} still to go; "
+        f"{tables}"
+    )
     return 0
 
 

@@ -12,12 +12,12 @@ def replay(run: Path, query: str, output: Path | None, settings: list[str]) -> i
     """Simulate the rows ``query`` selects again, optionally under ``settings``; one line each."""
     import numpy as np
 
-    from pih.analysis.recordings import record_insertion
     from pih.cli.row_query import select_rows
     from pih.config import to_mapping
     from pih.planning.planner import Planner
     from pih.planning.run_record import RecordedRun, recorded_pose, recorded_rollout, succeeded
     from pih.records.provenance import record as provenance_record
+    from pih.records.recordings import record_insertion
     from pih.scene.overrides import scene_settings, scene_with
 
     try:

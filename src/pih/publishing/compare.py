@@ -32,7 +32,7 @@ import pandas as pd
 
 from pih.analysis.aggregate import ROBUSTNESS_COLUMNS
 from pih.analysis.run_summary import NO_MODEL_ERROR
-from pih.publishing.published import runs_by_point
+from pih.publishing.published import remake_tables, runs_by_point
 from pih.records.outputs import read_provenance
 from pih.records.provenance import input_sha256
 
@@ -283,15 +283,12 @@ def shared_points(
 def _restricted(tree: Path, runs: Mapping[str, Path], points: set[str], copy: Path) -> Path:
     """``copy``: ``tree`` with only the planning ``runs`` at ``points`` (its other outputs
     whole) and the planning tables remade from them as ``pih aggregate`` makes them."""
-    from pih.analysis.planning_summary import write_pooled_summary
-    from pih.analysis.pooling import find_outputs, pool
-
     for entry in tree.iterdir():
         if entry.name != "planning" and entry.is_dir():
             shutil.copytree(entry, copy / entry.name)
     for key in sorted(points):
         shutil.copytree(runs[key], copy / "planning" / runs[key].name)
-    write_pooled_summary(pool(*find_outputs([copy / "planning"])), copy / "planning" / "summary")
+    remake_tables(copy / "planning")
     return copy
 
 

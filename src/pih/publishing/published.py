@@ -334,9 +334,6 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
     one verified equivalent to it), or one already published whose rollouts differ. Each run's provenance says where it was made
     (host, CPU, code version, date). Once every run is in, the study's planning tables are made
     from them (``planning/summary``)."""
-    from pih.analysis.planning_summary import write_pooled_summary
-    from pih.analysis.pooling import find_outputs, pool
-
     config_files = tuple(str(root / f) for f in study.config_files)
     expected, redeployments = expected_runs(config_files), expected_redeployments(config_files)
     destination = root / study.directory / "planning"
@@ -372,8 +369,18 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
         _copy_whole(files, path.parent, destination / directories[key])
     missing = len(set(expected) - set(runs_by_point(destination, keys)))
     if not missing:
-        write_pooled_summary(pool(*find_outputs([destination])), destination / "summary")
+        remake_tables(destination)
     return Part(len(new), len(ours) - len(finished), missing)
+
+
+def remake_tables(planning: Path) -> None:
+    """A study's planning tables (``planning/summary``), made from its runs, redeployments and
+    replays as ``pih aggregate`` makes them."""
+    from pih.analysis.planning_summary import write_pooled_summary
+    from pih.analysis.pooling import find_outputs, pool
+
+    pooled = pool(*find_outputs([planning]), current_codes=current_hashes())
+    write_pooled_summary(pooled, planning / "summary")
 
 
 def published_run_reasons(
@@ -488,8 +495,8 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
     """README's results for ``study``, generated from its published summary tables: the
     headline per method (and per compared level, :func:`pih.analysis.summary.planning_rows`) and its
     paired comparisons from offset starts (those from the training start are in
-    ``summary.md``)."""
-    from pih.analysis.summary import perturbed_pairs, planning_rows
+    ``summary.md``); with replays at a finer step, both at the runs' step and at that one."""
+    from pih.analysis.summary import perturbed_pairs, planning_rows, step_pairs
     from pih.records.outputs import markdown_table
 
     tables = published / "planning" / "summary"
@@ -498,6 +505,11 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
     success, robustness, paired = (
         pd.read_parquet(tables / f"{name}.parquet") for name in ("success", "robustness", "paired")
     )
+    time_step = None
+    pairs, caption = perturbed_pairs(paired, robustness), "Paired from offset starts"
+    if (tables / "time_step.parquet").is_file():
+        time_step = pd.read_parquet(tables / "time_step.parquet")
+        pairs, caption = step_pairs(paired, robustness), "Paired from offset starts, at each step"
     record = read_provenance(tables / "success.parquet")
     drake = record.get("packages", {}).get("drake", "?")
     made = f"code `{record['code_version']}`, Drake {drake}, {record['created_utc'][:10]}"
@@ -513,9 +525,9 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
         [
             begin,
             source,
-            markdown_table(planning_rows(success, robustness), "{:.3g}").strip(),
-            "Paired from offset starts (sign test over the untied pairs):",
-            markdown_table(perturbed_pairs(paired, robustness), "{:.3g}").strip(),
+            markdown_table(planning_rows(success, robustness, time_step), "{:.3g}").strip(),
+            f"{caption} (sign test over the untied pairs):",
+            markdown_table(pairs, "{:.3g}").strip(),
             end,
         ]
     )

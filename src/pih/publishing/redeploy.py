@@ -14,6 +14,7 @@ from pih.publishing.published import (
     one_line,
     published_run_reasons,
     published_runs,
+    remake_tables,
 )
 
 
@@ -43,8 +44,6 @@ def redeploy_published(
     (a model error that names no scene key), a published run that is not a sweep point of the
     config or not current (:func:`run_stale_reasons`). ``limit``: make at most that many, a part
     of the study. Once every run of the study has every redeployment, its tables are re-made."""
-    from pih.analysis.planning_summary import write_pooled_summary
-    from pih.analysis.pooling import find_outputs, pool
     from pih.planning.run_record import ROLLOUT_COLUMNS, RecordedRun
     from pih.records.outputs import write_table
     from pih.records.provenance import record
@@ -79,5 +78,5 @@ def redeploy_published(
     tables = not left and set(expected) <= set(runs)
     tables = tables and (made > 0 or not (destination / "summary").is_dir())
     if tables:
-        write_pooled_summary(pool(*find_outputs([destination])), destination / "summary")
+        remake_tables(destination)
     return Redeployed(made, left, tables)

@@ -19,50 +19,13 @@ from pih.publishing.published import (
     one_line,
     published_run_reasons,
     published_runs,
+    remake_tables,
 )
 from pih.records.outputs import read_provenance
+from pih.study.replay_record import COLUMNS, STEP, deployment_trials, replay_name
 
 REFERENCE_STEP_S = 6.25e-5
 """The step check's reference step (docs/simulation.md)."""
-DEPLOYMENT_PHASES = ("deploy", "deploy_final_mean")
-"""The trials a run's deployment makes: the deployed policy's and its final mean's."""
-COLUMNS = {
-    "source": ("1", "where the trials start: the training start, or the offset starts' file"),
-    "phase": ("1", "deploy (the deployed policy) or deploy_final_mean (the final mean)"),
-    "iteration": ("1", "the iteration the trial is recorded under"),
-    "rollout": ("1", "the trial's index"),
-    "recorded_inserted": ("1", "the recorded outcome, at the run's own step"),
-    "recorded_p2_x_m": ("m", "the recorded final P2 x"),
-    "recorded_p2_y_m": ("m", "the recorded final P2 y"),
-    "inserted": ("1", "the outcome at the replay's step (|P2 − H| ≤ tolerance, not diverged)"),
-    "p2_x_m": ("m", "final P2 x at the replay's step"),
-    "p2_y_m": ("m", "final P2 y at the replay's step"),
-    "flipped": ("1", "the outcome at the replay's step differs from the recorded one"),
-    "dp2_m": ("m", "|ΔP2|: distance between the recorded final P2 and the replay's"),
-}
-"""A replay file's columns: one row per deployment trial of the run."""
-
-
-def replay_name(step_s: float) -> str:
-    """The file a run's deployment trials replayed at ``step_s`` are written to, beside it."""
-    return f"replay_time_step_s~{step_s:g}.parquet"
-
-
-def deployment_trials(run: Path, rollouts: pd.DataFrame) -> pd.DataFrame:
-    """A run's deployment trials (``run``: its directory; ``rollouts``: its record's rows):
-    every row of :data:`DEPLOYMENT_PHASES` from the training start and from each offset-start
-    redeployment, ``source`` naming which (on the training scene: model errors are other
-    physics)."""
-    sources = [("training start", rollouts)]
-    sources += [
-        (path.stem.removeprefix("redeploy_"), pd.read_parquet(path))
-        for path in sorted(run.glob("redeploy_start_std_m~*.parquet"))
-    ]
-    trials = [
-        rows[rows["phase"].isin(DEPLOYMENT_PHASES)].assign(source=source)
-        for source, rows in sources
-    ]
-    return pd.concat(trials, ignore_index=True)
 
 
 @dataclass(frozen=True)
@@ -73,6 +36,8 @@ class Replayed:
     """runs whose trials were replayed and written"""
     left: int
     """runs still to replay"""
+    tables: bool
+    """whether the study's tables were re-made (every run replayed, and some in this call)"""
 
 
 def replay_published(
@@ -88,7 +53,7 @@ def replay_published(
     Drake and the CPU in its provenance; at most ``limit`` runs in this call. Refused in one line
     before any is replayed: a published run that is stray or not current, or a replay already
     there made by another Drake or by rollout code that is neither today's nor verified current
-    (parts are never mixed)."""
+    (parts are never mixed). Once every run is replayed, the study's tables are re-made."""
     from pih.config import to_mapping
     from pih.planning.run_record import RecordedRun
     from pih.records.outputs import write_table
@@ -138,7 +103,7 @@ def replay_published(
             frame["p2_x_m"] - frame["recorded_p2_x_m"], frame["p2_y_m"] - frame["recorded_p2_y_m"]
         )
         provenance = record(
-            "replay_step",
+            STEP,
             point=run.record["sweep_point"],
             config={"scene": to_mapping(scene), "planner": to_mapping(run.planner)},
             inputs=[path, *sorted(path.parent.glob("redeploy_start_std_m~*.parquet"))],
@@ -147,4 +112,7 @@ def replay_published(
         write_table(frame, path.parent / name, provenance, COLUMNS)
         progress(f"{path.parent.name}/{name}: {int(frame['flipped'].sum())} of {len(frame)} flip")
     made = len(todo[:limit])
-    return Replayed(made, len(todo) - made)
+    tables = made > 0 and made == len(todo) and set(expected) <= set(runs)
+    if tables:
+        remake_tables(root / study.directory / "planning")
+    return Replayed(made, len(todo) - made, tables)

@@ -271,7 +271,7 @@ def read_metadata(path: str | Path, key: str) -> Any:
 
 
 def read_recording_provenance(path: str | Path) -> dict[str, Any]:
-    """The provenance property of a recording written by :mod:`pih.analysis.recordings`."""
+    """The provenance property of a recording written by :mod:`pih.records.recordings`."""
     from rerun.chunk import RrdReader
 
     for chunk in RrdReader(str(path)).store().stream():
