@@ -280,6 +280,47 @@ def test_per_run_redraw_senses_the_hole_once():
     assert train["sensed_hole_x_m"].nunique() == 1
 
 
+def test_each_goal_names_its_method():
+    """Tables label one-level, its stable-goal variants and bilevel's rules apart."""
+    from pih.planning.config import GOALS, is_one_level, method_label
+
+    assert [method_label(goal) for goal in GOALS] == [
+        "one_level",
+        "one_level/mean_sensed_hole",
+        "one_level/calibrated_mean_sensed_hole",
+        "bilevel/explored_argmin",
+        "bilevel/deepest_explored",
+    ]
+    assert [is_one_level(goal) for goal in GOALS] == [True, True, True, False, False]
+
+
+@pytest.mark.parametrize("bias_m", [0.005, 0.002])
+def test_a_stable_goal_is_the_mean_of_the_runs_sensings_and_reads_no_fresh_one(bias_m):
+    """One-level with a stable goal (issue 69): in training the goal is the mean of the run's
+    sensings so far, in deployment the mean of all of them whatever the trial senses, less the
+    config's own μ_x when calibrated; the sensings are one-level's, draw for draw."""
+    config = short_config(iterations=3, population_size=1, deploy_trials=3)
+    config = replace(config, sensing=dataclasses.replace(config.sensing, bias_m=bias_m))
+    runs = {
+        goal: Planner.from_configs(COARSE, replace(config, goal=goal)).run().rollouts
+        for goal in ("sensed_hole", "mean_sensed_hole", "calibrated_mean_sensed_hole")
+    }
+    columns = ["sensed_hole_x_m", "sensed_hole_y_m", "sensed_hole_theta_rad"]
+    for goal, rows in runs.items():
+        pd.testing.assert_frame_equal(rows[columns], runs["sensed_hole"][columns])
+        if goal == "sensed_hole":
+            continue
+        bias = bias_m if goal.startswith("calibrated") else 0.0
+        train = rows[rows["phase"] == "train"]
+        running = train["sensed_hole_x_m"].expanding().mean() - bias
+        assert np.allclose(train["target_x_m"], running, rtol=0, atol=1e-15)
+        assert np.allclose(train["target_y_m"], train["sensed_hole_y_m"])
+        deployed = rows[rows["phase"] == "deploy"]
+        assert deployed["sensed_hole_x_m"].nunique() == 3  # each trial senses anew ...
+        final = train["sensed_hole_x_m"].mean() - bias
+        assert np.allclose(deployed["target_x_m"], final, rtol=0, atol=1e-15)  # ... unread
+
+
 @pytest.mark.parametrize("inserted_at", [set(), {1}, {1, 2}])
 def test_last_inserted_mean_deploys_the_latest_mean_that_inserted(
     tiny_runs, monkeypatch, inserted_at

@@ -665,7 +665,8 @@ def test_the_first_iterations_draws_are_bit_identical_on_this_machine(study):
         planner = Planner.from_configs(run.scene, run.planner, run.record["seed_key"])
         training, streams = Training.start(planner), Streams.of(planner.seeds)
         sensed = planner.sense_hole(streams.noise)
-        target = planner.target(training.outer, sensed)
+        training.sensings.append(sensed)
+        target = planner.target(training, sensed)
         batch = planner.training_batch(training, target, sensed, sensed, streams.start)
         first = phase_rows(run.rollouts, Phase.TRAIN).query("iteration == 1")
         drawn = batch[: len(first)]
@@ -837,3 +838,64 @@ def test_the_model_error_prose_and_table_quote_the_paper_scale_study():
         model_error_rows(robustness, paired).drop(columns=["dimension", "level"]), "{:.3g}"
     )
     assert table.strip() in (ROOT / "docs" / "planner.md").read_text()
+
+
+def test_planner_doc_quotes_the_first_sensings_and_where_one_levels_goal_lands():
+    """docs/planner.md's account of the first sensings (issue 69): the rate near the hole over
+    many seed keys of the project's own seeding against the model's, the published points' count,
+    and one-level's published trials by where the goal landed (the sensing, relative to the hole)."""
+    import math
+    import re
+
+    import numpy as np
+
+    from pih.planning.config import PlannerConfig, replace
+    from pih.planning.planner import run_seeds
+    from pih.study.points import seed_key
+
+    config = PlannerConfig()
+    bias, std, near = config.sensing.bias_m, config.sensing.std_m, 1.4e-3
+    starts = [round(-0.040 + 0.001 * i, 3) for i in range(11)]
+
+    def first_error(start: float, seed: int) -> float:
+        key = seed_key({"planner.start_x_m": start, "planner.seed": seed})
+        noise = run_seeds(replace(config, seed=seed), key)["noise"]
+        return float(np.random.default_rng(noise).normal(bias, std))
+
+    errors = np.abs([first_error(x, s) for s in range(2000) for x in starts])
+    model = 0.5 * (math.erf((near - bias) / std / 2**0.5) - math.erf((-near - bias) / std / 2**0.5))
+    points = [(x, 0) for x in starts] + [(x, 1) for x in (-0.04, -0.038, -0.034, -0.03)]
+    published = sum(abs(first_error(x, s)) <= near for x, s in points)
+    doc = " ".join((ROOT / "docs" / "planner.md").read_text().split())
+    assert f"{published} of the 15 first sensings" in doc
+    assert f"= {100 * model:.2f} %" in doc
+    assert f"put {100 * (errors <= near).mean():.2f} % of first sensings there" in doc
+    assert f"({int((errors <= near).sum()):,};" in doc
+
+    runs = [
+        ROOT / PAPER.directory / "planning" / f"start_x_m~{x:g}_goal~sensed_hole_seed~0"
+        for x in starts
+    ]
+    runs += [
+        ROOT
+        / SIM_TO_REAL.directory
+        / "planning"
+        / f"start_x_m~{x:g}_goal~sensed_hole_simulated_hole~true_hole_seed~1"
+        for x in (-0.04, -0.038, -0.034, -0.03)
+    ]
+    if not all(run.is_dir() for run in runs):
+        pytest.skip("the runs are not published here")
+    trials = pd.concat(
+        pd.read_parquet(path).query("phase == 'deploy'")
+        for run in runs
+        for path in (run / "rollouts.parquet", run / "redeploy_start_std_m~0.001.parquet")
+    )
+    edges = [-np.inf, -1, 0, 1, 2, 3, 4, 5, 6, 8, np.inf]
+    bins = pd.cut(1e3 * (trials["target_x_m"] - _scene_section()["hole"]["x_m"]), edges)
+    counts = trials.groupby(bins, observed=False)["success"].agg(["size", "sum"])
+    row = re.search(
+        r"\| trials \|([^\n]*)\|\s*\| inserted \|([^\n]*)\|",
+        (ROOT / "docs" / "planner.md").read_text(),
+    )
+    assert [int(v) for v in row.group(1).split("|")] == counts["size"].tolist()
+    assert [int(v) for v in row.group(2).split("|")] == counts["sum"].tolist()

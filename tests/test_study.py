@@ -233,6 +233,9 @@ def test_sweep_points_skip_repeated_one_level_runs_and_reject_bad_sweeps():
     assert len(points) == 2 * (1 + 2 * 2)
     one_level = [p for p in points if p["planner.goal"] == "sensed_hole"]
     assert {p["planner.outer.goal_tilt"] for p in one_level} == {"explored"}
+    # So do the stable-goal one-level variants (issue 69): one run each per start.
+    stable = sweep_points({**sweep, "planner.goal": ["mean_sensed_hole", "explored_argmin"]})
+    assert len(stable) == 2 * (1 + 2)
     # One-level depends on which weights it deploys: one run per deploy policy.
     policies = sweep_points(
         {

@@ -54,7 +54,7 @@ def figure_bands(bands: pd.DataFrame) -> pd.DataFrame:
 
 
 _LEVEL_COLUMNS = {
-    "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
+    "method": ("", "planning method: one_level, one_level/<stable goal> or bilevel/<outer rule>"),
     "dimension": ("", "sweep dimension the row is split by ('all': not split)"),
     "level": ("", "level of that dimension"),
 }
@@ -114,7 +114,7 @@ SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
 
 
 ROBUSTNESS_COLUMNS: dict[str, tuple[str, str]] = {
-    "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
+    "method": ("", "planning method: one_level, one_level/<stable goal> or bilevel/<outer rule>"),
     "start_std_m": ("m", "std of the deployment trials' start offset in x and y"),
     "model_error": (
         "",
@@ -177,7 +177,7 @@ def headline_std(robustness: pd.DataFrame) -> float | None:
 
 
 PER_RUN_COLUMNS: dict[str, tuple[str, str]] = {
-    "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
+    "method": ("", "planning method: one_level, one_level/<stable goal> or bilevel/<outer rule>"),
     "run": ("", "run directory (sweep point)"),
     **FIRST_SENSING_COLUMNS,
     "goal_iteration": (

@@ -28,11 +28,9 @@ from pih.analysis.run_summary import (
 )
 from pih.analysis.time_step import replay_rates
 from pih.config import ConfigError, recorded_config, to_mapping
-from pih.planning.config import ONE_LEVEL, OuterConfig, method_label, recorded_planner, replace
-from pih.records.outputs import read_provenance
-
-ONE_LEVEL_LABEL = method_label(ONE_LEVEL)
+from pih.planning.config import OuterConfig, is_one_level, recorded_planner, replace
 from pih.planning.run_record import DEPLOYMENT_PHASES, Phase, phase_rows
+from pih.records.outputs import read_provenance
 from pih.records.provenance import canonical_json, input_sha256
 from pih.scene.config import SceneConfig
 from pih.study import replay_record
@@ -66,6 +64,8 @@ class RunRecord:
     settings: dict[str, Any]
     start_std_m: float
     training: str
+    one_level: bool
+    """whether the run plans one-level (it ignores planner.outer)"""
 
     @classmethod
     def read(cls, path: Path) -> RunRecord:
@@ -73,7 +73,7 @@ class RunRecord:
         config = record["config"]
         scene = recorded_config(SceneConfig, config, "scene")
         planner = recorded_planner(config)
-        if planner.goal == ONE_LEVEL:
+        if is_one_level(planner.goal):
             planner = replace(planner, outer=OuterConfig())
         settings = _flat({"scene": to_mapping(scene), "planner": to_mapping(planner)})
         undeployed = to_mapping(replace(planner, deploy_start_std_m=0.0))
@@ -81,7 +81,8 @@ class RunRecord:
             {"scene": to_mapping(scene), "planner": undeployed, "seed_key": record["seed_key"]}
         )
         method = variant(to_mapping(planner))
-        return cls(path, record, method, settings, planner.deploy_start_std_m, training)
+        one_level = is_one_level(planner.goal)
+        return cls(path, record, method, settings, planner.deploy_start_std_m, training, one_level)
 
     @property
     def seed_key(self) -> str:
@@ -349,7 +350,7 @@ def _check_settings(runs: list[RunRecord], keys: list[str]) -> None:
 
 def _check_same_design(first: RunRecord, run: RunRecord, allowed: set[str]) -> None:
     # A one-level run ignores the outer level, whatever the bilevel runs set there.
-    ignored = OUTER_PREFIX if ONE_LEVEL_LABEL in (first.method, run.method) else None
+    ignored = OUTER_PREFIX if first.one_level or run.one_level else None
     differing = sorted(
         key
         for key in first.settings.keys() | run.settings.keys()
@@ -369,7 +370,7 @@ def _check_same_design(first: RunRecord, run: RunRecord, allowed: set[str]) -> N
 def _levels(run: RunRecord, keys: list[str]) -> list[Any]:
     """The run's levels of the split keys; a one-level run has no outer level."""
     return [
-        None if run.method == ONE_LEVEL_LABEL and k.startswith(OUTER_PREFIX) else run.level(k)
+        None if run.one_level and k.startswith(OUTER_PREFIX) else run.level(k)
         for k in split_keys(keys)
     ]
 

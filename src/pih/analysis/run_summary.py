@@ -33,7 +33,7 @@ def final_success_fraction(rollouts: pd.DataFrame, last: int = 10) -> float:
 
 def variant(planner: Mapping[str, Any]) -> str:
     """A run's method as the study compares it (its recorded ``planner`` section, any age):
-    ``one_level``, or ``bilevel/<outer rule>``."""
+    ``one_level``, ``one_level/<stable goal>`` or ``bilevel/<outer rule>``."""
     return method_label(upgraded(planner)["goal"])
 
 
@@ -123,7 +123,7 @@ def repeats_training(rollouts: pd.DataFrame) -> bool:
 BEST_COST_COLUMNS: dict[str, tuple[str, str]] = {
     "iteration": ("1", "iteration"),
     "cost": ("1", "best inner cost J_inn of the iteration (eq. 11)"),
-    "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
+    "method": ("", "planning method: one_level, one_level/<stable goal> or bilevel/<outer rule>"),
     "run": ("", "run directory (sweep point)"),
 }
 

@@ -31,6 +31,8 @@ PAPER_PLANNING = {
     "one_level": "mean cost diverges (no rate)",
     "bilevel/explored_argmin": "100 % insertion",
     "bilevel/deepest_explored": "— (our rule)",
+    "one_level/mean_sensed_hole": "— (not in the paper)",
+    "one_level/calibrated_mean_sensed_hole": "— (not in the paper)",
 }
 FEATURE_NAMES = {
     "initial_f_x": "initial F_x",

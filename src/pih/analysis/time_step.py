@@ -45,7 +45,7 @@ def replay_rates(replay: pd.DataFrame, step_s: float, recorded_step_s: float) ->
 
 
 TIME_STEP_COLUMNS: dict[str, tuple[str, str]] = {
-    "method": ("", "planning method: one_level, or bilevel/<outer rule>"),
+    "method": ("", "planning method: one_level, one_level/<stable goal> or bilevel/<outer rule>"),
     "time_step_s": RATE_COLUMNS["time_step_s"],
     "start_std_m": RATE_COLUMNS["start_std_m"],
     "phase": RATE_COLUMNS["phase"],

@@ -21,10 +21,21 @@ from pih.config import described, recorded_config, require, require_finite, requ
 from pih.planning.dmp import DmpConfig
 from pih.planning.optimizers import OptimizerConfig
 
-Goal = Literal["sensed_hole", "explored_argmin", "deepest_explored"]
-GOALS: tuple[str, ...] = ("sensed_hole", "explored_argmin", "deepest_explored")
+Goal = Literal[
+    "sensed_hole",
+    "mean_sensed_hole",
+    "calibrated_mean_sensed_hole",
+    "explored_argmin",
+    "deepest_explored",
+]
 ONE_LEVEL: Goal = "sensed_hole"
-"""The goal of one-level planning; the others are bilevel's outer rules."""
+"""The goal of one-level planning as the paper has it: each fresh sensing."""
+STABLE_GOALS: tuple[str, ...] = ("mean_sensed_hole", "calibrated_mean_sensed_hole")
+"""One-level with a stable goal: the mean of the run's sensings (docs/planner.md)."""
+ONE_LEVEL_GOALS: tuple[str, ...] = (ONE_LEVEL, *STABLE_GOALS)
+OUTER_RULES: tuple[str, ...] = ("explored_argmin", "deepest_explored")
+"""Bilevel's outer rules (planner.outer)."""
+GOALS: tuple[str, ...] = (*ONE_LEVEL_GOALS, *OUTER_RULES)
 
 
 Balance = Literal["none", "first_iteration_median"]
@@ -171,8 +182,11 @@ class PlannerConfig:
 
     goal: Goal = described(
         "explored_argmin",
-        "the DMP's goal q_R(T), which names the method: sensed_hole (one-level: the sensed "
-        "hole); bilevel's outer level (planner.outer) with explored_argmin (the paper's rule, "
+        "the DMP's goal q_R(T), which names the method: sensed_hole (one-level: each fresh "
+        "sensing q̃_H, the paper); mean_sensed_hole (one-level with a stable goal: in training "
+        "the mean of the run's sensings so far, deployed at the mean of all of them, reading no "
+        "fresh sensing); calibrated_mean_sensed_hole (the same less the known bias "
+        "sensing.bias_m in x); bilevel's outer level (planner.outer) with explored_argmin (the paper's rule, "
         "arg min J_out over the peg-tip poses P2 explored by the previous iteration, eq. 15–16) "
         "or deepest_explored (ours: once some rollout has put P2 more than entry_depth_m below "
         "the hole's top surface with the peg within max_tilt_rad of the hole's axis, aim along "
@@ -324,9 +338,28 @@ class PlannerConfig:
         self.outer.validate(prefix + "outer.")
 
 
+def is_one_level(goal: str) -> bool:
+    """Whether a goal is one-level's (no outer level: it ignores ``planner.outer``)."""
+    return goal in ONE_LEVEL_GOALS
+
+
 def method_label(goal: str) -> str:
-    """The method a goal names, as tables label it: ``one_level``, or ``bilevel/<outer rule>``."""
-    return "one_level" if goal == ONE_LEVEL else f"bilevel/{goal}"
+    """The method a goal names, as tables label it: ``one_level`` (the paper's),
+    ``one_level/<stable goal>`` or ``bilevel/<outer rule>``."""
+    if goal == ONE_LEVEL:
+        return "one_level"
+    return f"one_level/{goal}" if is_one_level(goal) else f"bilevel/{goal}"
+
+
+def stable_goal(
+    goal: str, sensings: list[NDArray[np.float64]], sensing: SensingConfig
+) -> NDArray[np.float64]:
+    """A stable goal (:data:`STABLE_GOALS`): the mean of ``sensings``, less the known bias μ_x
+    in x when calibrated."""
+    mean = np.mean(sensings, axis=0)
+    if goal == "calibrated_mean_sensed_hole":
+        mean[0] -= sensing.bias_m
+    return mean
 
 
 def upgraded(planner: Mapping[str, Any]) -> dict[str, Any]:

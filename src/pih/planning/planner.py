@@ -42,7 +42,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from pih.config import require
-from pih.planning.config import ONE_LEVEL, PlannerConfig
+from pih.planning.config import ONE_LEVEL, STABLE_GOALS, PlannerConfig, stable_goal
 from pih.planning.costs import CostBalance, CostTerms, inner_cost
 from pih.planning.dmp import Dmp
 from pih.planning.optimizers import Optimizer, make_optimizer
@@ -111,6 +111,8 @@ class Training:
     samples: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 0)))
     inserted_mean: NDArray[np.float64] | None = None
     inserted_iteration: int | None = None
+    sensings: list[NDArray[np.float64]] = field(default_factory=list)
+    """every sensing of the hole so far (a stable goal is their mean)"""
 
     @classmethod
     def start(cls, planner: Planner) -> Training:
@@ -265,9 +267,15 @@ class Planner:
             tips[..., :2] += rng.normal(0.0, std, tips[..., :2].shape)
         return tips
 
-    def target(self, outer: OuterLevel, sensed: NDArray[np.float64]) -> NDArray[np.float64]:
-        """One-level aims at the sensed hole; bilevel where its outer level says."""
-        return sensed.copy() if self.config.goal == ONE_LEVEL else outer.goal(sensed)
+    def target(self, training: Training, sensed: NDArray[np.float64]) -> NDArray[np.float64]:
+        """One-level aims at the sensed hole, or with a stable goal at the mean of the run's
+        sensings so far; bilevel where its outer level says."""
+        goal = self.config.goal
+        if goal == ONE_LEVEL:
+            return sensed.copy()
+        if goal in STABLE_GOALS:
+            return stable_goal(goal, training.sensings, self.config.sensing)
+        return training.outer.goal(sensed)
 
     def run(
         self, progress: Callable[[IterationReport], None] | None = None, workers: int = 1
@@ -291,12 +299,14 @@ class Planner:
         training = Training.start(self)
         streams = Streams.of(self.seeds)
         sensed = first_sensed = self.sense_hole(streams.noise)
+        training.sensings.append(sensed)
         for iteration in range(1, cfg.iterations + 1):
             # 1. Sense the hole: anew each iteration (Algorithm 1) or once per run.
             if iteration > 1 and cfg.sensing.redraw == "per_iteration":
                 sensed = self.sense_hole(streams.noise)
+                training.sensings.append(sensed)
             # 2. The DMP's goal: the sensed hole (one-level) or the outer level's (eq. 15–16).
-            target = self.target(training.outer, sensed)
+            target = self.target(training, sensed)
             # 3. Rollouts W ~ N(W*, σ_W) (eq. 12) through the simulator, with their J_inn (eq. 11).
             batch = self.training_batch(training, target, sensed, first_sensed, streams.start)
             results = training.evaluate(rollouts, batch)
@@ -365,7 +375,7 @@ class Planner:
         """The learned policy deployed ``deploy_trials`` times on the real hole (and with
         ``last_inserted_mean`` the final mean beside it, in the same situations); the run's
         record."""
-        situations = self.deployment_trials(training.outer)
+        situations = self.deployment_trials(training)
 
         def trials(weights: NDArray[np.float64]) -> list[Rollout]:
             return [Rollout(start, target, weights, sensed) for start, target, sensed in situations]
@@ -424,11 +434,13 @@ class Planner:
         starts = [self.offset_start(rng, self.config.deploy_start_std_m) for _ in range(n)]
         return list(zip(starts, sensings, strict=True))
 
-    def deployment_trials(self, outer: OuterLevel) -> list[tuple[NDArray, NDArray, NDArray]]:
+    def deployment_trials(self, training: Training) -> list[tuple[NDArray, NDArray, NDArray]]:
         """The (start, target, sensed hole) of each deployment trial: one-level aims at the
-        freshly sensed hole, bilevel where its outer level puts the goal."""
+        freshly sensed hole, or with a stable goal at the mean of its training sensings (reading
+        no fresh one); bilevel where its outer level puts the goal."""
         return [
-            (start, self.target(outer, sensed), sensed) for start, sensed in self.deployment_draws()
+            (start, self.target(training, sensed), sensed)
+            for start, sensed in self.deployment_draws()
         ]
 
     def redeployment(

@@ -95,6 +95,16 @@ PUBLISHED_STUDIES = {
             RUN_GLOBS,
             in_parts=True,
         ),
+        # One-level with a stable goal beside the paper-scale study, paired with its runs by
+        # seed key (pih aggregate published/paper published/stable_goal).
+        PublishedStudy(
+            "stable_goal",
+            ("config/config.yaml", "config/stable_goal.yaml"),
+            "stable-goal study",
+            RUN_GLOBS,
+            page="docs/planner.md",
+            in_parts=True,
+        ),
         # Planning runs only; the default's 12 runs are its runs on the real hole at -40 and -30
         # mm, draw for draw.
         PublishedStudy(

@@ -35,7 +35,7 @@ from pih.config import (
     set_paths,
     to_mapping,
 )
-from pih.planning.config import ONE_LEVEL, PlannerConfig, replace
+from pih.planning.config import PlannerConfig, is_one_level, replace
 from pih.records.provenance import canonical_json
 from pih.scene.config import SceneConfig
 from pih.scene.overrides import scene_with
@@ -106,7 +106,7 @@ def sweep_points(
     for levels in itertools.product(*sweep.values()):
         point = dict(zip(sweep, (plain(v) for v in levels)))
         settings = {**variants.get(point.get(VARIANT_KEY), {}), **point}
-        if settings.get(GOAL_KEY, goal) == ONE_LEVEL:
+        if is_one_level(settings.get(GOAL_KEY, goal)):
             key = canonical_json(
                 {
                     k: v
