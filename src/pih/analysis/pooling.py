@@ -11,7 +11,7 @@ from __future__ import annotations
 import fnmatch
 import itertools
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -170,7 +170,7 @@ class PooledRuns:
 def pool(
     run_files: list[Path],
     redeploy_files: list[Path],
-    replay_files: list[Path] = (),  # type: ignore[assignment]
+    replay_files: Sequence[Path] = (),
     current_codes: frozenset[str] = frozenset(),
 ) -> PooledRuns:
     """Pool planning runs. Records of one training (same settings but the deployment std, same
