@@ -70,6 +70,7 @@ from pih.cli import job
 from pih.cli.common import first_line
 from pih.cli.show import SHOWN_TYPES
 from pih.publishing.compare import R_TOLERANCE
+from pih.publishing.published import PUBLISHED_STUDIES
 from pih.publishing.reference_step import REFERENCE_STEP_S
 
 
@@ -191,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
     publish.add_argument("results", type=Path, nargs="?", default=Path("results"))
     publish.add_argument(
         "--study",
-        choices=["default", "sim_to_real", "paper"],
+        choices=list(PUBLISHED_STUDIES),
         default="default",
         help="which published study RESULTS is a run of (default: default)",
     )
