@@ -349,3 +349,37 @@ def test_robustness_rows_at_different_levels_of_a_compared_dimension_stay_apart(
             "model_error=none: deploy_success_rate"
         )
     ]
+
+
+def test_the_pairs_at_a_replays_step_count_only_when_both_trees_hold_replays(tmp_path):
+    """A workflow run makes no replays (``pih publish --replay-step`` makes them beside published
+    runs), so a fresh run is not failed for lacking the pairs at the replay's step; two trees
+    that both hold them are compared on them too."""
+    from pih.publishing.compare import PAIRED, TIME_STEP, conclusion_checks, headline_differences
+
+    pair = {"method": "a", "versus": "one_level", "pairs": 11, "tied": 0, "mean_difference": 0.7}
+    rows = [
+        {**pair, "dimension": "start_std_m", "level": "0.001", "better": 11, "worse": 0},
+        {
+            **pair,
+            "dimension": "time_step_s",
+            "level": "starts 0.001 m off at 6.25e-05 s",
+            "better": 11,
+            "worse": 0,
+        },
+    ]
+    trees = {}
+    for name, held in (("published", rows), ("fresh", rows[:1])):
+        (tmp_path / name / "planning" / "summary").mkdir(parents=True)
+        pd.DataFrame(held).assign(sign_test_p=0.001).to_parquet(tmp_path / name / PAIRED)
+        trees[name] = tmp_path / name
+    pd.DataFrame({"time_step_s": [6.25e-5]}).to_parquet(trees["published"] / TIME_STEP)
+    checks = conclusion_checks(trees["published"], trees["fresh"])
+    assert len(checks) == 1 and all(check.holds for check in checks)
+    assert headline_differences(trees["published"], trees["fresh"], 1e-9)[0] == []
+    # Both with replays: the pairs at the replay's step are a conclusion, and a lost one fails.
+    flipped = pd.DataFrame([rows[0], {**rows[1], "better": 0, "worse": 11}])
+    flipped.assign(sign_test_p=0.001).to_parquet(trees["fresh"] / PAIRED)
+    pd.DataFrame({"time_step_s": [6.25e-5]}).to_parquet(trees["fresh"] / TIME_STEP)
+    checks = conclusion_checks(trees["published"], trees["fresh"])
+    assert [check.holds for check in checks] == [True, False]

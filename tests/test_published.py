@@ -448,6 +448,20 @@ def test_paper_scale_prose_quotes_the_published_numbers():
         f"differ at {rules['better']} starts, both for ours (p = {rules['sign_test_p']:.3g})"
         in prose
     )
+    # The same trials at the step check's reference step (issue 68).
+    at_step = pd.read_parquet(summary / "time_step.parquet")
+    fine = at_step[(at_step["time_step_s"] == 6.25e-5) & (at_step["phase"] == "deploy")]
+    fine = fine[fine["start_std_m"] == 0.001].set_index("method")
+    counts = (fine["deploy_success_rate"] * fine["trials"]).round().astype(int)
+    assert f"in {counts[ours]}, {counts[theirs]} and {counts[one]}, with every pair" in prose
+    flipped = int(at_step.loc[at_step["time_step_s"] == 6.25e-5, "flipped_trials"].sum())
+    assert f"{flipped} of the study's {len(per_run) * 4 * trials:,} trials end otherwise" in prose
+    steps = paired[paired["dimension"] == "time_step_s"].set_index("level")
+    columns = ["method", "versus", "better", "worse", "tied", "sign_test_p"]
+    coarse = steps.loc["starts 0.001 m off at 0.0005 s", columns].reset_index(drop=True)
+    pd.testing.assert_frame_equal(coarse, offset[columns].reset_index(drop=True))
+    reference = steps.loc["starts 0.001 m off at 6.25e-05 s", columns].reset_index(drop=True)
+    pd.testing.assert_frame_equal(reference, coarse)  # "every pair and p ... unchanged"
 
 
 SIM_TO_REAL = PUBLISHED_STUDIES["sim_to_real"]

@@ -43,6 +43,7 @@ pooled r(F_x) and r(F_z) differ by 0.09, and the step and contact settings move 
 ROBUSTNESS = "planning/summary/robustness.parquet"
 SUCCESS = "planning/summary/success.parquet"
 PAIRED = "planning/summary/paired.parquet"
+TIME_STEP = "planning/summary/time_step.parquet"
 VALIDATION = "validation/comparison.parquet"
 
 LEVELS = "<levels>"
@@ -172,10 +173,15 @@ def _rows(path: Path, keys: tuple[str, ...], numbers: tuple[str, ...]) -> dict[s
 
 
 def _tables(old: Path, new: Path, table: str, keys: tuple[str, ...], numbers: tuple[str, ...]):
-    """Both trees' rows of ``table`` (None for a tree without it)."""
-    return tuple(
-        _rows(t / table, keys, numbers) if (t / table).is_file() else None for t in (old, new)
-    )
+    """Both trees' rows of ``table`` (None for a tree without it). The pairs at a replay's step
+    count only when both trees hold replays: a workflow run makes none (a published study's are
+    made beside its runs, ``pih publish --replay-step``), so a fresh run is judged on what it
+    can reproduce."""
+    rows = [_rows(t / table, keys, numbers) if (t / table).is_file() else None for t in (old, new)]
+    if table == PAIRED and not all((t / TIME_STEP).is_file() for t in (old, new)):
+        replayed = "dimension=time_step_s"
+        rows = [r and {k: v for k, v in r.items() if replayed not in k} for r in rows]
+    return tuple(rows)
 
 
 def headline_differences(
