@@ -913,3 +913,35 @@ def test_planner_doc_quotes_the_first_sensings_and_where_one_levels_goal_lands()
     )
     assert [int(v) for v in row.group(1).split("|")] == counts["size"].tolist()
     assert [int(v) for v in row.group(2).split("|")] == counts["sum"].tolist()
+
+
+def test_a_study_that_pools_another_makes_its_tables_from_both(tmp_path, monkeypatch):
+    """A study beside another (the stable-goal study beside the paper-scale one) pairs with its
+    runs by seed key: its tables pool both studies' runs, the other's own tables stay as they
+    are."""
+    import shutil
+
+    from pih.publishing.published import RUN_GLOBS, PublishedStudy, study_tables
+
+    runs = sorted((ROOT / PAPER.directory / "planning").glob("start_x_m~-0.034_goal~*_seed~0"))
+    if len(runs) != 3:
+        pytest.skip("the paper-scale runs at -34 mm are not published here")
+    beside = PublishedStudy("beside", (), "beside", RUN_GLOBS, in_parts=True, pools=("base",))
+    base = PublishedStudy("base", (), "base", RUN_GLOBS, in_parts=True)
+    monkeypatch.setitem(PUBLISHED_STUDIES, "base", base)
+    for run, study in zip(runs, (base, base, beside), strict=True):
+        shutil.copytree(run, tmp_path / study.directory / "planning" / run.name)
+    study_tables(tmp_path, beside)
+    success = pd.read_parquet(
+        tmp_path / beside.directory / "planning" / "summary" / "success.parquet"
+    )
+    assert sorted(success.loc[success["dimension"] == "all", "method"]) == [
+        "bilevel/deepest_explored",
+        "bilevel/explored_argmin",
+        "one_level",
+    ]
+    paired = pd.read_parquet(
+        tmp_path / beside.directory / "planning" / "summary" / "paired.parquet"
+    )
+    assert (paired.query("dimension == 'start_std_m'")["pairs"] == 1).all()  # paired by seed key
+    assert not (tmp_path / base.directory / "planning" / "summary").exists()

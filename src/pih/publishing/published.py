@@ -57,6 +57,9 @@ class PublishedStudy:
     (:func:`run_stale_reasons`: today's config and Drake, today's rollout code or one verified
     equivalent to it) when it joined (:func:`publish_part`); its tables are made once every run
     is in."""
+    pools: tuple[str, ...] = ()
+    """Published studies whose runs its tables pool with its own (:func:`study_tables`): runs
+    that pair with its by seed key."""
 
     @property
     def directory(self) -> Path:
@@ -104,6 +107,7 @@ PUBLISHED_STUDIES = {
             RUN_GLOBS,
             page="docs/planner.md",
             in_parts=True,
+            pools=("paper",),
         ),
         # Planning runs only; the default's 12 runs are its runs on the real hole at -40 and -30
         # mm, draw for draw.
@@ -379,18 +383,25 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
         _copy_whole(files, path.parent, destination / directories[key])
     missing = len(set(expected) - set(runs_by_point(destination, keys)))
     if not missing:
-        remake_tables(destination)
+        study_tables(root, study)
     return Part(len(new), len(ours) - len(finished), missing)
 
 
-def remake_tables(planning: Path) -> None:
+def remake_tables(planning: Path, also: Iterable[Path] = ()) -> None:
     """A study's planning tables (``planning/summary``), made from its runs, redeployments and
-    replays as ``pih aggregate`` makes them."""
+    replays, and those under ``also``, as ``pih aggregate`` makes them."""
     from pih.analysis.planning_summary import write_pooled_summary
     from pih.analysis.pooling import find_outputs, pool
 
-    pooled = pool(*find_outputs([planning]), current_codes=current_hashes())
+    pooled = pool(*find_outputs([planning, *also]), current_codes=current_hashes())
     write_pooled_summary(pooled, planning / "summary")
+
+
+def study_tables(root: Path, study: PublishedStudy) -> None:
+    """A published study's tables (:func:`remake_tables`), pooled with the studies it
+    :attr:`~PublishedStudy.pools`."""
+    others = [root / PUBLISHED_STUDIES[name].directory / "planning" for name in study.pools]
+    remake_tables(root / study.directory / "planning", others)
 
 
 def published_run_reasons(

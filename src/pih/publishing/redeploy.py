@@ -14,7 +14,7 @@ from pih.publishing.published import (
     one_line,
     published_run_reasons,
     published_runs,
-    remake_tables,
+    study_tables,
 )
 
 
@@ -78,5 +78,5 @@ def redeploy_published(
     tables = not left and set(expected) <= set(runs)
     tables = tables and (made > 0 or not (destination / "summary").is_dir())
     if tables:
-        remake_tables(destination)
+        study_tables(root, study)
     return Redeployed(made, left, tables)

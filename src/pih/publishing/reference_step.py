@@ -19,7 +19,7 @@ from pih.publishing.published import (
     one_line,
     published_run_reasons,
     published_runs,
-    remake_tables,
+    study_tables,
 )
 from pih.records.outputs import read_provenance
 from pih.study.replay_record import COLUMNS, STEP, deployment_trials, replay_name
@@ -114,5 +114,5 @@ def replay_published(
     made = len(todo[:limit])
     tables = made > 0 and made == len(todo) and set(expected) <= set(runs)
     if tables:
-        remake_tables(root / study.directory / "planning")
+        study_tables(root, study)
     return Replayed(made, len(todo) - made, tables)
