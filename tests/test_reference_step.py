@@ -47,13 +47,16 @@ def test_replay_rates_count_each_step_start_and_policy():
         }
     )
     replay["flipped"] = replay["inserted"] != replay["recorded_inserted"]
-    rates = replay_rates(replay, 6.25e-5, 5e-4).set_index(["time_step_s", "start_std_m", "phase"])
+    rates = replay_rates(replay, 6.25e-5, 5e-4, 0.0)
+    rates = rates.set_index(["time_step_s", "start_std_m", "phase"])
     assert rates.loc[(5e-4, 0.0, "deploy"), "deploy_success_rate"] == 1.0
     assert rates.loc[(6.25e-5, 0.0, "deploy"), "deploy_success_rate"] == 0.5
     assert rates.loc[(6.25e-5, 0.001, "deploy"), "deploy_success_rate"] == 1.0
     assert rates.loc[(6.25e-5, 0.001, "deploy"), "flipped_trials"] == 1
     assert rates.xs(5e-4)["flipped_trials"].sum() == 0
-    assert len(replay_rates(replay, 5e-4, 5e-4)) == 3
+    assert len(replay_rates(replay, 5e-4, 5e-4, 0.0)) == 3
+    # A run deployed from offset starts itself: its own trials are at its std.
+    assert set(replay_rates(replay, 6.25e-5, 5e-4, 5e-4)["start_std_m"]) == {5e-4, 0.001}
 
 
 def test_the_published_replays_pool_beside_the_runs_own_trials(tmp_path):

@@ -240,6 +240,7 @@ def pool(
             pd.read_parquet(path),
             record["simulator"]["time_step_s"],
             run.settings["scene.solver.time_step_s"],
+            run.start_std_m,
         )
         levels = {key: str(lead.level(key)) for key in split_keys(keys)}
         replays.append(rates.assign(method=lead.method, run=name[run.training], **levels))

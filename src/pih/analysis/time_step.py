@@ -15,7 +15,10 @@ from pih.study.replay_record import source_start_std_m
 
 RATE_COLUMNS: dict[str, tuple[str, str]] = {
     "time_step_s": ("s", "the step the trials were simulated at (the run's own, or a replay's)"),
-    "start_std_m": ("m", "std of the trials' start offset in x and y (0: the training start)"),
+    "start_std_m": (
+        "m",
+        "std of the trials' start offset in x and y (the run's own trials: its deploy_start_std_m)",
+    ),
     "phase": ("", "deploy (the deployed policy) or deploy_final_mean (the final mean)"),
     "deploy_success_rate": ("1", "fraction of the run's trials that inserted"),
     "trials": ("1", "the run's trials"),
@@ -24,11 +27,15 @@ RATE_COLUMNS: dict[str, tuple[str, str]] = {
 """Per run, one row per step, start std and phase (:func:`replay_rates`)."""
 
 
-def replay_rates(replay: pd.DataFrame, step_s: float, recorded_step_s: float) -> pd.DataFrame:
+def replay_rates(
+    replay: pd.DataFrame, step_s: float, recorded_step_s: float, deploy_start_std_m: float
+) -> pd.DataFrame:
     """One run's deployment success per start std and phase at its own step
     (``recorded_step_s``: the recorded outcomes) and at ``step_s`` (the replay's), from its replay
-    file's rows (a replay at the run's own step: its rows once)."""
-    trials = replay.assign(start_std_m=replay["source"].map(source_start_std_m))
+    file's rows (a replay at the run's own step: its rows once); the run's own trials start
+    ``deploy_start_std_m`` off."""
+    stds = replay["source"].map(lambda source: source_start_std_m(source, deploy_start_std_m))
+    trials = replay.assign(start_std_m=stds)
     steps = [(recorded_step_s, "recorded_inserted")] if step_s != recorded_step_s else []
     parts = []
     for step, outcome in [*steps, (step_s, "inserted")]:

@@ -40,10 +40,12 @@ def replay_name(step_s: float) -> str:
     return f"replay_time_step_s~{step_s:g}.parquet"
 
 
-def source_start_std_m(source: str) -> float:
-    """The start std of a ``source``: 0 for the training start, else its file's
-    (``start_std_m~0.001`` → 0.001)."""
-    return 0.0 if source == TRAINING_START else float(source.removeprefix("start_std_m~"))
+def source_start_std_m(source: str, deploy_start_std_m: float) -> float:
+    """The start std of a ``source``: the run's own (``planner.deploy_start_std_m``) for the
+    training start, else its file's (``start_std_m~0.001`` → 0.001)."""
+    if source == TRAINING_START:
+        return deploy_start_std_m
+    return float(source.removeprefix("start_std_m~"))
 
 
 def deployment_trials(run: Path, rollouts: pd.DataFrame) -> pd.DataFrame:
