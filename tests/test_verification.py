@@ -195,18 +195,24 @@ def test_outputs_are_compared_bit_for_bit_column_by_column(tmp_path):
 
 
 def test_the_suite_is_the_published_configurations_without_start_and_seed():
-    """3 methods x {the real hole, the sensed hole per run}, each at the recorded run whose mean
-    inserted earliest, one iteration past that."""
+    """3 methods x {the real hole, the sensed hole per run}, and each stable goal published so far
+    on the real hole, each at the recorded run whose mean inserted earliest, one iteration past
+    that."""
+    from pih.planning.config import STABLE_GOALS
     from pih.publishing.published import PUBLISHED_STUDIES
     from pih.publishing.verification import suite
 
     studies = [Study(s.directory, s.config_files) for s in PUBLISHED_STUDIES.values()]
     items = suite(studies, ROOT)
-    assert [item.name for item in items] == [
+    stable = ROOT / PUBLISHED_STUDIES["stable_goal"].directory / "planning"
+    published = [goal for goal in STABLE_GOALS if any(stable.glob(f"*_goal~{goal}_*"))]
+    expected = [f"{goal}, true_hole" for goal in published]
+    expected += [
         f"{goal}, {hole}"
         for goal in ("deepest_explored", "explored_argmin", "sensed_hole")
         for hole in ("sensed_per_run", "true_hole")
     ]
+    assert [item.name for item in items] == sorted(expected)
     for item in items:
         [path] = (ROOT / "published").glob(f"*/planning/{item.recorded}/rollouts.parquet")
         rollouts = pd.read_parquet(path)
