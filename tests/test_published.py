@@ -9,15 +9,13 @@ import pytest
 
 from pih.__main__ import main
 from pih.planning.run_record import RecordedRun
+from pih.publishing.pages import README_BEGIN, README_END, results_block
 from pih.publishing.published import (
     PUBLISHED_DIR,
     PUBLISHED_STUDIES,
-    README_BEGIN,
-    README_END,
     expected_runs,
     expected_validation,
     point_key,
-    results_block,
     stale_reasons,
     validation_stale_reasons,
 )
@@ -177,12 +175,7 @@ def test_publish_refuses_a_tree_that_is_not_the_studys_run(tmp_path, capsys, mon
 
 
 def test_readme_results_are_generated_from_the_published_tables(tmp_path):
-    from pih.publishing.published import (
-        README_BEGIN,
-        README_END,
-        readme_with_results,
-        results_block,
-    )
+    from pih.publishing.pages import readme_with_results
     from pih.records.outputs import write_table
     from pih.records.provenance import record
 
@@ -387,6 +380,7 @@ def test_a_run_of_a_study_that_fixed_a_key_joins_one_that_sweeps_it(tmp_path):
 
 
 PAPER = PUBLISHED_STUDIES["paper"]
+STABLE = PUBLISHED_STUDIES["stable_goal"]
 
 
 @pytest.mark.skipif(
@@ -403,7 +397,7 @@ def test_paper_scale_prose_quotes_the_published_numbers():
     per_run = pd.read_parquet(summary / "per_run.parquet")
     robustness = pd.read_parquet(summary / "robustness.parquet")
     prose = " ".join(
-        (ROOT / PAPER.page).read_text().split(PAPER.markers[1])[1].split("\n\n")[1].split()
+        (ROOT / STABLE.page).read_text().split(STABLE.markers[1])[1].split("\n\n")[1].split()
     )
     trials = 10
     runs = per_run.groupby("method").size()
@@ -462,6 +456,66 @@ def test_paper_scale_prose_quotes_the_published_numbers():
     pd.testing.assert_frame_equal(coarse, offset[columns].reset_index(drop=True))
     reference = steps.loc["starts 0.001 m off at 6.25e-05 s", columns].reset_index(drop=True)
     pd.testing.assert_frame_equal(reference, coarse)  # "every pair and p ... unchanged"
+
+
+def test_stable_goal_prose_quotes_the_pooled_tables():
+    """README's account of what bilevel's win is made of (issue 69) quotes the stable-goal study's
+    tables, which pool the paper-scale study's runs: each variant's trials inserted from offset
+    starts, its pairs against one-level, and that no rule did significantly better
+    than a variant, naming the closest pair; docs/planner.md's deployed goals come from the runs."""
+    summary = ROOT / STABLE.directory / "planning" / "summary"
+    robustness = pd.read_parquet(summary / "robustness.parquet")
+    paired = pd.read_parquet(summary / "paired.parquet")
+    readme = " ".join((ROOT / STABLE.page).read_text().split())
+    planner = " ".join((ROOT / "docs" / "planner.md").read_text().split())
+    one, rules = "one_level", ("bilevel/deepest_explored", "bilevel/explored_argmin")
+    mean, calibrated = "one_level/mean_sensed_hole", "one_level/calibrated_mean_sensed_hole"
+    offset = robustness[
+        (robustness["start_std_m"] == 0.001) & (robustness["model_error"] == "none")
+    ]
+    offset = offset.set_index("method")
+    runs = int(offset.loc[mean, "runs"])
+    total = runs * 10
+    inserted = (offset["deploy_success_rate"] * offset["runs"] * 10).round().astype(int)
+    assert (
+        f"(`mean_sensed_hole`, ≈ 5 mm past the hole), it inserted in {inserted[mean]} of {total} "
+        f"trials from offset starts; with the bias subtracted (`calibrated_mean_sensed_hole`), in "
+        f"{inserted[calibrated]} of {total}." in readme
+    )
+    assert f"`published/stable_goal/`: {2 * runs} runs paired" in readme
+    pairs = paired[(paired["dimension"] == "start_std_m") & (paired["level"] == "0.001")]
+    pairs = pairs.set_index(["method", "versus"])
+    against = pairs.loc[[(one, mean), (one, calibrated)]]
+    assert (against["worse"] == runs).all() and against["sign_test_p"].nunique() == 1
+    assert (
+        f"Each beat one-level at all {runs} starts (p = {against['sign_test_p'].iloc[0]:.3g})"
+        in readme
+    )
+    rule_pairs = [(rule, variant) for rule in rules for variant in (mean, calibrated)]
+    assert (pairs.loc[rule_pairs, "sign_test_p"] >= 0.05).all()
+    closest = pairs.loc[rule_pairs].sort_values("sign_test_p").iloc[0]
+    assert closest.name == (rules[0], mean)
+    assert (
+        f"(the closest pair: ours better at {closest['better']} starts, worse at "
+        f"{closest['worse']}, p = {closest['sign_test_p']:.3g})" in readme
+    )
+    assert (
+        f"From offset starts they inserted in {inserted[mean]} and {inserted[calibrated]} of "
+        f"{total} trials, against ours {inserted[rules[0]]}, the paper's rule "
+        f"{inserted[rules[1]]} and one-level {inserted[one]}" in planner
+    )
+    goals = {}
+    for path in sorted((ROOT / STABLE.directory / "planning").glob("*/rollouts.parquet")):
+        deploy = pd.read_parquet(path).query("phase == 'deploy'")
+        assert deploy["target_x_m"].nunique() == 1  # one fixed goal a run
+        goal = path.parent.name.split("goal~")[1].split("_seed")[0]
+        goals.setdefault(goal, []).append(1e3 * float(deploy["target_x_m"].iloc[0]))
+    assert (
+        f"the stable goal sat {min(goals['mean_sensed_hole']):.1f}–"
+        f"{max(goals['mean_sensed_hole']):.1f} mm past the hole (`mean_sensed_hole`" in planner
+    )
+    low, high = min(goals["calibrated_mean_sensed_hole"]), max(goals["calibrated_mean_sensed_hole"])
+    assert f"or {-low:.1f} mm short to {high:.1f} mm past it (`calibrated" in planner
 
 
 SIM_TO_REAL = PUBLISHED_STUDIES["sim_to_real"]

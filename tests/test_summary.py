@@ -174,24 +174,41 @@ def test_the_headline_at_a_finer_step_stands_beside_the_runs_own():
     assert rows[at_fine].tolist() == ["0.80 (0.50–0.95)", "0.50 (0.25–0.75)", "0.20 (0.05–0.50)"]
     partial = planning_rows(_success(), _robustness(), _time_step(runs=6))
     assert set(partial[at_fine]) == {"— (6 of 10 runs replayed)"}
-    # The pairs at each step: the pooled rows from the headline's offset starts, coarse first.
-    pair = {"versus": "one_level", "pairs": 10, "better": 9, "worse": 1, "tied": 0}
+    # The pairs at each step, a row a pair: the runs' own from the offset starts' rows, the
+    # replayed step's from its pooled rows; a pair whose runs were not all replayed is a dash.
+    pair = {"pairs": 10, "better": 9, "worse": 1, "tied": 0, "sign_test_p": 0.0215}
+    fewer = {**pair, "pairs": 6, "better": 6, "worse": 0, "sign_test_p": 0.0312}
     paired = pd.DataFrame(
         [
-            {"method": "a", "dimension": "time_step_s", "level": level, **pair}
-            for level in (
-                "training start at 0.0005 s",
-                "starts 0.001 m off at 0.0005 s",
-                "starts 0.001 m off at 6.25e-05 s",
-                "starts 0.001 m off at 6.25e-05 s, friction = 0.3",
-                "starts 0.003 m off at 6.25e-05 s",
+            {"method": "a", "versus": versus, "dimension": "time_step_s", "level": level, **p}
+            for versus, level, p in (
+                ("one_level", "training start at 0.0005 s", pair),
+                ("one_level", "starts 0.001 m off at 0.0005 s", pair),
+                ("one_level", "starts 0.001 m off at 6.25e-05 s", {**pair, "better": 8, "tied": 1}),
+                ("one_level", "starts 0.001 m off at 6.25e-05 s, friction = 0.3", pair),
+                ("one_level", "starts 0.003 m off at 6.25e-05 s", pair),
+                ("b", "starts 0.001 m off at 6.25e-05 s", fewer),
             )
         ]
-        + [{"method": "a", "dimension": "start_std_m", "level": "0.001", **pair}]
+        + [
+            {"method": "a", "versus": versus, "dimension": "start_std_m", "level": "0.001", **pair}
+            for versus in ("one_level", "b")
+        ]
     )
     pairs = step_pairs(paired, _robustness())
-    assert pairs["time step"].tolist() == ["0.5 ms", "0.0625 ms"]
-    assert pairs.columns.tolist() == ["time step", "method", *pair]
+    assert pairs.columns.tolist() == [
+        "method",
+        "versus",
+        "pairs",
+        "at 0.5 ms: better / worse / tied",
+        "p at 0.5 ms",
+        "at 0.0625 ms: better / worse / tied",
+        "p at 0.0625 ms",
+    ]
+    assert pairs.values.tolist() == [
+        ["a", "one_level", 10, "9 / 1 / 0", 0.0215, "8 / 1 / 1", 0.0215],
+        ["a", "b", 10, "9 / 1 / 0", 0.0215, "—", "—"],
+    ]
 
 
 def test_summary_names_the_code_version_and_links_the_tables():

@@ -489,7 +489,8 @@ def test_a_study_published_in_parts_gets_the_workflows_tables(smoke_run, tmp_pat
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from pih.publishing.published import Part, PublishedStudy, publish_part, results_block
+    from pih.publishing.pages import results_block
+    from pih.publishing.published import Part, PublishedStudy, publish_part
 
     study = PublishedStudy(
         "smoke",

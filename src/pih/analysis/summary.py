@@ -6,6 +6,7 @@ the workflow's tables. One unit per column; the detailed tables are linked.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -210,7 +211,11 @@ def planning_rows(
                     row["final_mean_deploy_ci_low"],
                     row["final_mean_deploy_ci_high"],
                 ),
-                "median goal iteration": row["median_goal_iteration"],
+                "median goal iteration": (
+                    "never"
+                    if math.isnan(row["median_goal_iteration"])
+                    else row["median_goal_iteration"]
+                ),
             }
         )
     return pd.DataFrame(rows)
@@ -240,15 +245,27 @@ def _replayed_headline(
 
 
 def step_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
-    """The paired comparisons on the headline's offset starts, pooled, at each step the study's
-    trials were simulated at (:func:`pih.analysis.time_step.time_step_pairs`' rows, the runs' own
-    step first), a ``time step`` column naming it."""
+    """The paired comparisons on the headline's offset starts, pooled, one row a pair: at the
+    runs' own step (:func:`perturbed_pairs`) and at each step their trials were replayed at
+    (:func:`pih.analysis.time_step.time_step_pairs`' rows), ``better / worse / tied`` and the
+    sign test's p for each; "—" where a pair's runs were not all replayed."""
     std = headline_std(on_training_scene(robustness))
+    coarse = perturbed_pairs(paired, robustness)
     rows = paired[paired["dimension"] == "time_step_s"]
     steps = rows["level"].str.extract(rf"^starts {std:g} m off at ([^ ,]+) s$")[0].dropna()
-    table = rows.loc[steps.index].drop(columns=["dimension", "level"])
-    table.insert(0, "time step", [f"{1e3 * float(step):g} ms" for step in steps])
-    return table.reset_index(drop=True)
+    at_step = rows.loc[steps.index].assign(step=steps.astype(float))
+    pair = ["method", "versus"]
+    table = coarse[[*pair, "pairs"]].copy()
+    for step in sorted(at_step["step"].unique(), reverse=True):
+        here = coarse if step == at_step["step"].max() else at_step[at_step["step"] == step]
+        here = table[pair].merge(here, on=pair, how="left")
+        whole = here["pairs"].to_numpy() == table["pairs"].to_numpy()
+        table[f"at {1e3 * step:g} ms: better / worse / tied"] = [
+            f"{int(r.better)} / {int(r.worse)} / {int(r.tied)}" if full else "—"
+            for r, full in zip(here.itertuples(), whole, strict=True)
+        ]
+        table[f"p at {1e3 * step:g} ms"] = here["sign_test_p"].astype(object).where(whole, "—")
+    return table
 
 
 def perturbed_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:

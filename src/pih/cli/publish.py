@@ -11,13 +11,8 @@ from pih.cli.common import first_line
 
 def publish(results: Path, name: str) -> int:
     """Copy ``results`` into ``published/<name>`` and regenerate the study's results block."""
-    from pih.publishing.published import (
-        PUBLISHED_STUDIES,
-        publish,
-        publish_part,
-        readme_with_results,
-        results_block,
-    )
+    from pih.publishing.pages import write_results
+    from pih.publishing.published import PUBLISHED_STUDIES, publish, publish_part
 
     study = PUBLISHED_STUDIES[name]
     page = Path(study.page)
@@ -35,8 +30,7 @@ def publish(results: Path, name: str) -> int:
     except (OSError, ValueError) as error:
         print(f"pih publish: {first_line(error)}", file=sys.stderr)
         return 1
-    block = results_block(study.directory, study)
-    page.write_text(readme_with_results(page.read_text(), block, study))
+    write_results(study)
     print(f"{study.directory}: {copied}; {page}'s results for it")
     return 0
 
@@ -44,12 +38,12 @@ def publish(results: Path, name: str) -> int:
 def redeploy_published(name: str, limit: int | None, workers: int) -> int:
     """Make the published study's missing redeployments, at most ``limit``; once all are in,
     its tables are re-made and its results block regenerated."""
-    from pih.publishing.published import PUBLISHED_STUDIES, readme_with_results, results_block
+    from pih.publishing.pages import write_results
+    from pih.publishing.published import PUBLISHED_STUDIES
     from pih.publishing.redeploy import redeploy_published
 
     study = PUBLISHED_STUDIES[name]
-    page = Path(study.page)
-    if not _page_ready(page, study.markers[0]):
+    if not _page_ready(Path(study.page), study.markers[0]):
         return 1
     if (limit is not None and limit < 1) or workers < 1:
         print("pih publish: --limit and --workers: expected at least 1", file=sys.stderr)
@@ -60,9 +54,7 @@ def redeploy_published(name: str, limit: int | None, workers: int) -> int:
         print(f"pih publish: {first_line(error)}", file=sys.stderr)
         return 1
     if done.tables:
-        page.write_text(
-            readme_with_results(page.read_text(), results_block(study.directory, study), study)
-        )
+        write_results(study)
     tables = "its tables re-made" if done.tables else "the tables once all are in"
     print(f"{study.directory}: {done.made} redeployments made, {done.left} still to make; {tables}")
     return 0
@@ -71,10 +63,13 @@ def redeploy_published(name: str, limit: int | None, workers: int) -> int:
 def replay_published(name: str, step_s: float, limit: int | None, workers: int) -> int:
     """Replay the published study's deployment trials at ``step_s``, at most ``limit`` runs;
     once all are in, its tables are re-made and its results block regenerated."""
-    from pih.publishing.published import PUBLISHED_STUDIES, readme_with_results, results_block
+    from pih.publishing.pages import write_results
+    from pih.publishing.published import PUBLISHED_STUDIES
     from pih.publishing.reference_step import replay_published
 
     study = PUBLISHED_STUDIES[name]
+    if not _page_ready(Path(study.page), study.markers[0]):
+        return 1
     if (limit is not None and limit < 1) or workers < 1:
         print("pih publish: --limit and --workers: expected at least 1", file=sys.stderr)
         return 1
@@ -90,10 +85,7 @@ def replay_published(name: str, step_s: float, limit: int | None, workers: int) 
         print(f"pih publish: {first_line(error)}", file=sys.stderr)
         return 1
     if done.tables:
-        page = Path(study.page)
-        page.write_text(
-            readme_with_results(page.read_text(), results_block(study.directory, study), study)
-        )
+        write_results(study)
     tables = "its tables re-made" if done.tables else "the tables once all are in"
     print(
         f"{study.directory}: {done.made} runs replayed at {step_s:g} s, {done.left} still to go; "

@@ -21,7 +21,6 @@ import json
 import shutil
 import subprocess
 import tempfile
-import textwrap
 from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -96,16 +95,17 @@ PUBLISHED_STUDIES = {
             ("config/config.yaml", "config/paper.yaml", "config/model_error.yaml"),
             "paper-scale study",
             RUN_GLOBS,
+            page="docs/planner.md",
             in_parts=True,
         ),
         # One-level with a stable goal beside the paper-scale study, paired with its runs by
-        # seed key (pih aggregate published/paper published/stable_goal).
+        # seed key (pih aggregate published/paper published/stable_goal). Its tables pool the
+        # paper-scale study's: README's headline, all five methods.
         PublishedStudy(
             "stable_goal",
             ("config/config.yaml", "config/stable_goal.yaml"),
             "stable-goal study",
             RUN_GLOBS,
-            page="docs/planner.md",
             in_parts=True,
             pools=("paper",),
         ),
@@ -509,67 +509,6 @@ def _differing_keys(old: Mapping, new: Mapping, prefix: str = "") -> list[str]:
     return keys
 
 
-README_BEGIN, README_END = PUBLISHED_STUDIES["default"].markers
-
-
-def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["default"]) -> str:
-    """README's results for ``study``, generated from its published summary tables: the
-    headline per method (and per compared level, :func:`pih.analysis.summary.planning_rows`) and its
-    paired comparisons from offset starts (those from the training start are in
-    ``summary.md``); with replays at a finer step, both at the runs' step and at that one."""
-    from pih.analysis.summary import perturbed_pairs, planning_rows, step_pairs
-    from pih.records.outputs import markdown_table
-
-    tables = published / "planning" / "summary"
-    if study.in_parts and not tables.is_dir():
-        return _in_progress_block(published, study)
-    success, robustness, paired = (
-        pd.read_parquet(tables / f"{name}.parquet") for name in ("success", "robustness", "paired")
-    )
-    time_step = None
-    pairs, caption = perturbed_pairs(paired, robustness), "Paired from offset starts"
-    if (tables / "time_step.parquet").is_file():
-        time_step = pd.read_parquet(tables / "time_step.parquet")
-        pairs, caption = step_pairs(paired, robustness), "Paired from offset starts, at each step"
-    record = read_provenance(tables / "success.parquet")
-    drake = record.get("packages", {}).get("drake", "?")
-    made = f"code `{record['code_version']}`, Drake {drake}, {record['created_utc'][:10]}"
-    if study.in_parts:
-        made = f"runs made at {_sources(published_runs(published, study)[1])}; tables at {made}"
-    source = (
-        f"The published {study.title} (`{study.directory}/`, {made}); deployment success, 95 % "
-        "interval over runs:"
-    )
-    source = textwrap.fill(source, 100)
-    begin, end = study.markers
-    return "\n\n".join(
-        [
-            begin,
-            source,
-            markdown_table(planning_rows(success, robustness, time_step), "{:.3g}").strip(),
-            f"{caption} (sign test over the untied pairs):",
-            markdown_table(pairs, "{:.3g}").strip(),
-            end,
-        ]
-    )
-
-
-def _in_progress_block(published: Path, study: PublishedStudy) -> str:
-    """A study published in parts, before its last run is in: how far it is, and from where."""
-    expected, runs = published_runs(published, study)
-    drake = sorted(
-        {read_provenance(p).get("packages", {}).get("drake", "?") for p in runs.values()}
-    )
-    text = (
-        f"The {study.title} (`{study.directory}/`) is published in parts: {len(runs)} of its "
-        f"{len(expected)} runs so far"
-        + (f" (Drake {', '.join(drake)}; made at {_sources(runs)})" if runs else "")
-        + "; its tables come once every run is in."
-    )
-    begin, end = study.markers
-    return "\n\n".join([begin, textwrap.fill(text, 100), end])
-
-
 def published_runs(
     published: Path, study: PublishedStudy
 ) -> tuple[dict[str, dict[str, object]], dict[str, Path]]:
@@ -578,23 +517,3 @@ def published_runs(
     root = Path(published).parents[1]
     expected = expected_runs(tuple(str(root / f) for f in study.config_files))
     return expected, runs_by_point(published / "planning", sweep_keys_of(expected))
-
-
-def _sources(runs: Mapping[str, Path]) -> str:
-    """Where runs were made: each code version, host and date once, with its number of runs,
-    the earliest first."""
-    made = sorted((read_provenance(path) for path in runs.values()), key=lambda r: r["created_utc"])
-    counts = collections.Counter(
-        f"`{r['code_version']}` on {r['host']}, {r['created_utc'][:10]}" for r in made
-    )
-    return ", ".join(f"{source} ({n} run{'s' * (n > 1)})" for source, n in counts.items())
-
-
-def readme_with_results(
-    readme: str, block: str, study: PublishedStudy = PUBLISHED_STUDIES["default"]
-) -> str:
-    """``readme`` with the text between ``study``'s results markers replaced by ``block``."""
-    begin, end_marker = study.markers
-    start, end = readme.index(begin), readme.find(end_marker)
-    end = end + len(end_marker) if end >= 0 else start + len(begin)
-    return readme[:start] + block + readme[end:]

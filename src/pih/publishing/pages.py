@@ -1,0 +1,113 @@
+"""A published study's results on its page (README, or a docs page): generated from its tables
+(:func:`results_block`) between its markers (:attr:`PublishedStudy.markers`), never typed."""
+
+from __future__ import annotations
+
+import collections
+import textwrap
+from collections.abc import Mapping
+from pathlib import Path
+
+import pandas as pd
+
+from pih.publishing.published import PUBLISHED_STUDIES, PublishedStudy, published_runs
+from pih.records.outputs import read_provenance, write_text
+
+README_BEGIN, README_END = PUBLISHED_STUDIES["default"].markers
+
+
+def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["default"]) -> str:
+    """README's results for ``study``, generated from its published summary tables: the
+    headline per method (and per compared level, :func:`pih.analysis.summary.planning_rows`) and its
+    paired comparisons from offset starts (those from the training start are in
+    ``summary.md``); with replays at a finer step, both at the runs' step and at that one."""
+    from pih.analysis.summary import perturbed_pairs, planning_rows, step_pairs
+    from pih.records.outputs import markdown_table
+
+    tables = published / "planning" / "summary"
+    if study.in_parts and not tables.is_dir():
+        return _in_progress_block(published, study)
+    success, robustness, paired = (
+        pd.read_parquet(tables / f"{name}.parquet") for name in ("success", "robustness", "paired")
+    )
+    time_step = None
+    pairs, caption = perturbed_pairs(paired, robustness), "Paired from offset starts"
+    if (tables / "time_step.parquet").is_file():
+        time_step = pd.read_parquet(tables / "time_step.parquet")
+        pairs, caption = step_pairs(paired, robustness), "Paired from offset starts, at each step"
+    record = read_provenance(tables / "success.parquet")
+    drake = record.get("packages", {}).get("drake", "?")
+    made = f"code `{record['code_version']}`, Drake {drake}, {record['created_utc'][:10]}"
+    if study.in_parts:
+        made = f"runs made at {_sources(published_runs(published, study)[1])}; tables at {made}"
+    source = f"The published {study.title} (`{study.directory}/`, {made})"
+    for name in study.pools:
+        pooled = PUBLISHED_STUDIES[name]
+        runs = published_runs(published.parents[1] / pooled.directory, pooled)[1]
+        source += (
+            f" pooled with the {pooled.title}'s {len(runs)} runs (`{pooled.directory}/`, made "
+            f"{_dates(runs)})"
+        )
+    source += "; deployment success, 95 % interval over runs:"
+    source = textwrap.fill(source, 100)
+    begin, end = study.markers
+    return "\n\n".join(
+        [
+            begin,
+            source,
+            markdown_table(planning_rows(success, robustness, time_step), "{:.3g}").strip(),
+            f"{caption} (sign test over the untied pairs):",
+            markdown_table(pairs, "{:.3g}").strip(),
+            end,
+        ]
+    )
+
+
+def _in_progress_block(published: Path, study: PublishedStudy) -> str:
+    """A study published in parts, before its last run is in: how far it is, and from where."""
+    expected, runs = published_runs(published, study)
+    drake = sorted(
+        {read_provenance(p).get("packages", {}).get("drake", "?") for p in runs.values()}
+    )
+    text = (
+        f"The {study.title} (`{study.directory}/`) is published in parts: {len(runs)} of its "
+        f"{len(expected)} runs so far"
+        + (f" (Drake {', '.join(drake)}; made at {_sources(runs)})" if runs else "")
+        + "; its tables come once every run is in."
+    )
+    begin, end = study.markers
+    return "\n\n".join([begin, textwrap.fill(text, 100), end])
+
+
+def _sources(runs: Mapping[str, Path]) -> str:
+    """Where runs were made: each code version, host and date once, with its number of runs,
+    the earliest first."""
+    made = sorted((read_provenance(path) for path in runs.values()), key=lambda r: r["created_utc"])
+    counts = collections.Counter(
+        f"`{r['code_version']}` on {r['host']}, {r['created_utc'][:10]}" for r in made
+    )
+    return ", ".join(f"{source} ({n} run{'s' * (n > 1)})" for source, n in counts.items())
+
+
+def _dates(runs: Mapping[str, Path]) -> str:
+    """The first and last day ``runs`` were made."""
+    days = sorted(read_provenance(path)["created_utc"][:10] for path in runs.values())
+    return days[0] if days[0] == days[-1] else f"{days[0]} – {days[-1]}"
+
+
+def readme_with_results(
+    readme: str, block: str, study: PublishedStudy = PUBLISHED_STUDIES["default"]
+) -> str:
+    """``readme`` with the text between ``study``'s results markers replaced by ``block``."""
+    begin, end_marker = study.markers
+    start, end = readme.index(begin), readme.find(end_marker)
+    end = end + len(end_marker) if end >= 0 else start + len(begin)
+    return readme[:start] + block + readme[end:]
+
+
+def write_results(study: PublishedStudy) -> Path:
+    """Regenerate ``study``'s results block on its page (run from the repository's root)."""
+    page = Path(study.page)
+    block = results_block(study.directory, study)
+    write_text(page, readme_with_results(page.read_text(), block, study))
+    return page
