@@ -64,7 +64,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from pih.config import ConfigError, from_mapping, to_mapping
-from pih.planning.config import ONE_LEVEL, PlannerConfig
+from pih.planning.config import ONE_LEVEL, PlannerConfig, recorded_planner
 from pih.planning.run_record import RecordedRun
 from pih.publishing.equivalence import current_hashes
 from pih.publishing.published import PUBLISHED_STUDIES
@@ -225,7 +225,8 @@ def write_set(drawn: pd.DataFrame, path: Path) -> None:
 
 def read_set(path: Path) -> tuple[pd.DataFrame, PlannerConfig]:
     meta = pq.read_schema(path).metadata
-    planner = from_mapping(PlannerConfig, json.loads(meta[b"planner"]), "planner")
+    # Read as a run's record is: keys the set predates at their defaults.
+    planner = recorded_planner({"planner": json.loads(meta[b"planner"])})
     return pd.read_parquet(path), planner
 
 
@@ -300,7 +301,7 @@ def read_reference() -> tuple[pd.DataFrame, PlannerConfig]:
         raise SystemExit(f"{path}: made by Drake {made_by}, not {drake}; --make-reference")
     if provenance["rollout_code_sha256"] not in current_hashes():
         print(f"{path}: made by other rollout code ({provenance['code_version']})")
-    planner = from_mapping(PlannerConfig, provenance["config"]["planner"], "planner")
+    planner = recorded_planner(provenance["config"])
     return pd.read_parquet(path), planner
 
 

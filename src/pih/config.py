@@ -198,6 +198,9 @@ def json_schema(tp: Any) -> dict[str, Any]:
         }
     if origin is Literal:
         return {"enum": list(get_args(tp))}
+    if origin in (typing.Union, types.UnionType) and type(None) in get_args(tp):
+        (inner,) = (a for a in get_args(tp) if a is not type(None))
+        return {"anyOf": [json_schema(inner), {"type": "null"}]}
     if origin is dict and get_origin(get_args(tp)[1]) is dict:
         return {"type": "object", "additionalProperties": json_schema(get_args(tp)[1])}
     if origin is dict:
@@ -260,6 +263,8 @@ def markdown_tables(cls: type, key: str, level: int = 2) -> str:
 
 def markdown_type(schema: Mapping[str, Any]) -> str:
     """A key's JSON schema as the type column of docs/configuration.md."""
+    if "anyOf" in schema:
+        return " or ".join(markdown_type(option) for option in schema["anyOf"])
     if "enum" in schema:
         return " \\| ".join(f"`{_yaml_text(v)}`" for v in schema["enum"])
     kind = schema.get("type")

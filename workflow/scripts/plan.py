@@ -36,6 +36,7 @@ with logged(snakemake.log[0]):
         config={"scene": to_mapping(scene), "planner": to_mapping(planner_config)},
         simulator=scene.simulator_settings(),
         extra={
+            "training_scene": to_mapping(planner.training_scene_config),
             "seed_key": key,
             "variant_overrides": variant_overrides(snakemake.config, point),
             "result": summary,

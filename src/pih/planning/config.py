@@ -12,7 +12,7 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from pih.config import described, recorded_config, require, require_finite, require_positive
 from pih.planning.dmp import DmpConfig
 from pih.planning.optimizers import OptimizerConfig
+from pih.scene.config import ContactModel
 
 Goal = Literal[
     "sensed_hole",
@@ -177,6 +178,51 @@ class OuterConfig:
 
 
 @dataclass(frozen=True)
+class SimulatorConfig:
+    """The planner's own simulator: where the scene its training rollouts (sampled and mean) run
+    on differs from the real ``scene``, beyond the hole (``planner.simulated_hole``). Deployment
+    trials and redeployments always run on the real scene; the rollout's time grid is the real
+    scene's step (docs/planner.md, "The planner's own simulator")."""
+
+    # The paper's thesis (its abstract): point contact's sim-to-real gap is why planning needs
+    # hydroelastic contact. Training in point contact and deploying on the hydroelastic scene
+    # tests it.
+    contact_model: ContactModel | None = described(
+        None,
+        "Drake's contact model of the training simulator (the levels of "
+        "scene.solver.contact_model); null: the real scene's",
+    )
+    point_stiffness_n_per_m: float | None = described(
+        None,
+        "the training simulator's point-contact stiffness (as "
+        "scene.material.point_stiffness_n_per_m); null: the real scene's",
+    )
+
+    def validate(self, prefix: str = "") -> None:
+        model = self.contact_model
+        models = get_args(ContactModel)
+        allowed = f"one of {list(models)} or null"
+        require(model is None or model in models, prefix + "contact_model", allowed, model)
+        stiffness = self.point_stiffness_n_per_m
+        require(
+            stiffness is None or (math.isfinite(stiffness) and stiffness > 0),
+            prefix + "point_stiffness_n_per_m",
+            "a finite value > 0 or null",
+            stiffness,
+        )
+
+    @property
+    def scene_changes(self) -> dict[str, object]:
+        """The training simulator's differences from the real scene, as ``SceneConfig.replace``
+        takes them (``section__field``)."""
+        changes = {
+            "solver__contact_model": self.contact_model,
+            "material__point_stiffness_n_per_m": self.point_stiffness_n_per_m,
+        }
+        return {key: value for key, value in changes.items() if value is not None}
+
+
+@dataclass(frozen=True)
 class PlannerConfig:
     """The planner (paper Table 4, §3.3; docs/planner.md): method, start, budget, deployment."""
 
@@ -274,6 +320,7 @@ class PlannerConfig:
     costs: CostConfig = field(default_factory=CostConfig)
     sensing: SensingConfig = field(default_factory=SensingConfig)
     outer: OuterConfig = field(default_factory=OuterConfig)
+    simulator: SimulatorConfig = field(default_factory=SimulatorConfig)
 
     def validate(self, prefix: str = "") -> None:
         require(self.goal in GOALS, prefix + "goal", f"one of {list(GOALS)}", self.goal)
@@ -336,6 +383,7 @@ class PlannerConfig:
         self.costs.validate(prefix + "costs.")
         self.sensing.validate(prefix + "sensing.")
         self.outer.validate(prefix + "outer.")
+        self.simulator.validate(prefix + "simulator.")
 
 
 def is_one_level(goal: str) -> bool:

@@ -146,13 +146,14 @@ class Training:
 
 class Planner:
     """Algorithm 1 on one scene, the real one. The scene (and its Drake diagram) is reused by
-    every rollout; with ``simulated_hole`` training rollouts run on a copy whose hole sits at a
-    sensed pose (the latest such copy is kept)."""
+    every rollout; training rollouts run on the planner's own simulator where it differs
+    (``planner.simulator``, ``simulated_hole``): a copy of the scene with its contact model and
+    the hole at a sensed pose (the latest such copy is kept)."""
 
     def __init__(self, scene: PegInHoleScene, config: PlannerConfig, seed_key: str = "") -> None:
         config.validate()
         self.scene = scene
-        self._simulated: tuple[bytes, PegInHoleScene] | None = None
+        self._training: tuple[bytes, PegInHoleScene] | None = None
         self.config = config
         self.seeds = run_seeds(config, seed_key)
         hole = scene.config.hole
@@ -184,27 +185,38 @@ class Planner:
                 sensed[axis] = rng.normal(truth[axis], std)
         return sensed
 
+    @property
+    def training_scene_config(self) -> SceneConfig:
+        """The scene of the planner's own simulator, the hole aside: the real scene with
+        ``planner.simulator``'s changes (its contact model)."""
+        changes = self.config.simulator.scene_changes
+        return self.scene.config.replace(**changes) if changes else self.scene.config
+
     def scene_for(self, simulated_hole: NDArray[np.float64] | None) -> PegInHoleScene:
-        """The scene a rollout simulates: the real one, or (``simulated_hole`` given and not the
-        real hole) a copy with the hole frame H at that pose's x and y."""
-        if simulated_hole is None or np.array_equal(simulated_hole, self.scene.hole_pose):
+        """The scene a rollout simulates: the real one (``simulated_hole`` None: deployment), or
+        the training simulator (:attr:`training_scene_config`) with the hole frame H at that
+        pose's x and y; the real scene itself where that is no different."""
+        if simulated_hole is None:
+            return self.scene
+        changes = self.config.simulator.scene_changes
+        if not changes and np.array_equal(simulated_hole, self.scene.hole_pose):
             return self.scene
         key = np.asarray(simulated_hole, float).tobytes()
-        if self._simulated is None or self._simulated[0] != key:
+        if self._training is None or self._training[0] != key:
             config = self.scene.config.replace(
-                hole__x_m=float(simulated_hole[0]), hole__y_m=float(simulated_hole[1])
+                **changes, hole__x_m=float(simulated_hole[0]), hole__y_m=float(simulated_hole[1])
             )
-            self._simulated = (key, PegInHoleScene(config))
-        return self._simulated[1]
+            self._training = (key, PegInHoleScene(config))
+        return self._training[1]
 
     def simulated_hole(
         self, sensed: NDArray[np.float64], first_sensed: NDArray[np.float64]
     ) -> NDArray[np.float64] | None:
         """Where a training rollout's simulator puts the hole (``simulated_hole``); None: the
-        real hole."""
+        real scene itself (the real hole, and no ``planner.simulator`` change)."""
         mode = self.config.simulated_hole
         if mode == "true_hole":
-            return None
+            return self.scene.hole_pose.copy() if self.config.simulator.scene_changes else None
         return (first_sensed if mode == "sensed_per_run" else sensed).copy()
 
     def dmp(self, start: NDArray[np.float64], target: NDArray[np.float64]) -> Dmp:

@@ -46,7 +46,8 @@ def phase_rows(rollouts: pd.DataFrame, phase: Phase) -> pd.DataFrame:
 class Rollout(NamedTuple):
     """One rollout to evaluate: the DMP from ``start`` to ``target`` (P2 poses) with weights W,
     its costs read against the sensed hole q̃_H, simulated with the hole at ``simulated_hole``
-    (None: where the scene has it, the real hole; ``planner.simulated_hole``)."""
+    on the planner's own simulator (``planner.simulated_hole``, ``planner.simulator``; None: the
+    real scene, as every deployment trial)."""
 
     start: NDArray[np.float64]
     target: NDArray[np.float64]
@@ -325,7 +326,13 @@ def recorded_rollout(row: pd.Series) -> Rollout:
     (with the run's scene and planner config) replays it exactly, e.g. to look at one
     deployment trial. Records that predate ``simulated_hole_*`` ran on the scene's hole."""
     start, target, sensed = (recorded_pose(row, p) for p in ("start", "target", "sensed_hole"))
-    simulated = recorded_pose(row, "simulated_hole") if "simulated_hole_x_m" in row else None
+    # A deployment trial ran on the real scene, whatever the training simulator.
+    deployed = row.get("phase") in DEPLOYMENT_PHASES
+    simulated = (
+        recorded_pose(row, "simulated_hole")
+        if "simulated_hole_x_m" in row and not deployed
+        else None
+    )
     return Rollout(start, target, np.asarray(row["weights"], float), sensed, simulated)
 
 

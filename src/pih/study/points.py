@@ -26,6 +26,8 @@ same for every level, so these are method keys (shared draws) that one-level run
 TRAINING_KEYS = ("planner.train_start_std_m", "planner.simulated_hole")
 """How the policy is trained (from offset starts; on the real or a sensed hole): a method
 choice, so these are method keys too (shared draws), and one-level runs depend on them."""
+SIMULATOR_PREFIX = "planner.simulator."
+"""Sweep keys under this prefix choose the training simulator: training keys as above."""
 
 VARIANT_KEY = "variant"
 """Sweep key whose levels name entries of the config's ``variants`` (one-at-a-time ablations)."""
@@ -36,7 +38,7 @@ def is_method_key(path: str) -> bool:
     rather than the situation (start, seed, noise, scene): runs differing only in such keys
     share their random draws (common random numbers), so their comparison is paired."""
     return path in (GOAL_KEY, *DEPLOY_KEYS, *TRAINING_KEYS, VARIANT_KEY) or path.startswith(
-        OUTER_PREFIX
+        (OUTER_PREFIX, SIMULATOR_PREFIX)
     )
 
 

@@ -1,0 +1,110 @@
+"""The planner's own simulator (``planner.simulator``, issue 70): training rollouts run on a
+scene whose contact model differs from the real one; deployment trials always on the real one."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_planner import COARSE, short_config
+
+from pih.config import ConfigError, from_mapping, to_mapping
+from pih.planning.config import PlannerConfig, SimulatorConfig, recorded_planner, replace
+from pih.planning.planner import Planner
+from pih.planning.run_record import recorded_rollout
+from pih.study.points import is_method_key, seed_key
+
+POINT = {"contact_model": "point", "point_stiffness_n_per_m": 1.0e7}
+
+
+def planner_from(**simulator: object) -> PlannerConfig:
+    """A planner config read from a mapping, as a config file's ``planner`` section is."""
+    mapping = to_mapping(PlannerConfig())
+    mapping["simulator"] = {**mapping["simulator"], **simulator}
+    return from_mapping(PlannerConfig, mapping, "planner")
+
+
+def test_simulator_keys_are_checked_before_anything_runs():
+    """A bad value, or a key that is no difference a training simulator may have (e.g. the
+    peg's geometry, which would change what deployment measures), is refused naming the key."""
+    assert planner_from(**POINT).simulator.scene_changes == {
+        "solver__contact_model": "point",
+        "material__point_stiffness_n_per_m": 1.0e7,
+    }
+    assert planner_from().simulator.scene_changes == {}  # null: the real scene's
+    with pytest.raises(ConfigError, match=r"planner\.simulator\.contact_model: 'pointy'"):
+        planner_from(contact_model="pointy")
+    with pytest.raises(ConfigError, match=r"planner\.simulator\.point_stiffness_n_per_m"):
+        planner_from(point_stiffness_n_per_m=-1.0)
+    with pytest.raises(ConfigError, match=r"planner\.simulator: unknown key\(s\) \['peg'\]"):
+        planner_from(peg={"width_m": 0.02})
+
+
+def test_runs_recorded_before_the_simulator_read_as_training_on_the_real_scene():
+    """A published run's planner section has no ``simulator``: it reads as the real scene's, so
+    the run stays what today's config computes."""
+    recorded = to_mapping(PlannerConfig())
+    del recorded["simulator"]
+    assert recorded_planner({"planner": recorded}).simulator == SimulatorConfig()
+
+
+def test_simulator_keys_are_training_keys_that_share_the_points_draws():
+    """Sweeping the training simulator pairs its runs with the real-scene ones by seed key."""
+    assert is_method_key("planner.simulator.contact_model")
+    point = {"planner.start_x_m": -0.04, "planner.seed": 0}
+    assert seed_key({**point, "planner.simulator.contact_model": "point"}) == seed_key(point)
+
+
+@pytest.fixture(scope="module")
+def point_trained() -> tuple[PlannerConfig, pd.DataFrame, pd.DataFrame]:
+    """One tiny run trained in point contact on the hydroelastic scene, and its twin on a scene
+    that is point contact throughout."""
+    config = short_config(iterations=2, population_size=2, deploy_policy="final_mean")
+    simulator = replace(config, simulator=SimulatorConfig(**POINT))
+    point_scene = COARSE.replace(
+        solver__contact_model="point", material__point_stiffness_n_per_m=1.0e7
+    )
+    trained = Planner.from_configs(COARSE, simulator).run().rollouts
+    everywhere = Planner.from_configs(point_scene, config).run().rollouts
+    return simulator, trained, everywhere
+
+
+def test_training_runs_in_the_simulator_and_deployment_on_the_real_scene(point_trained):
+    config, trained, everywhere = point_trained
+    train, twin = (
+        rows[rows["phase"] == "train"].reset_index(drop=True) for rows in (trained, everywhere)
+    )
+    # Training is the point-contact scene's, rollout for rollout, with the same draws.
+    pd.testing.assert_frame_equal(train, twin)
+    # Deployment is the real (hydroelastic) scene's: the trials replay there, not in point contact.
+    deploy = trained[trained["phase"] == "deploy"]
+    real = Planner.from_configs(COARSE, dataclasses.replace(config, simulator=SimulatorConfig()))
+    point = Planner.from_configs(COARSE, config)
+    finals = {"real": [], "training": []}
+    for _, row in deploy.iterrows():
+        rollout = recorded_rollout(row)
+        assert rollout.simulated_hole is None
+        finals["real"].append(real.evaluate_rollout(rollout)[0].q_peg_bottom[-1])
+        finals["training"].append(
+            point.evaluate_rollout(rollout._replace(simulated_hole=real.scene.hole_pose))[
+                0
+            ].q_peg_bottom[-1]
+        )
+    recorded = deploy[["final_bottom_x_m", "final_bottom_y_m", "final_bottom_theta_rad"]]
+    np.testing.assert_array_equal(np.array(finals["real"]), recorded.to_numpy())
+    assert not np.array_equal(np.array(finals["training"]), recorded.to_numpy())
+
+
+def test_a_training_rollout_in_the_simulator_replays_exactly(point_trained):
+    config, trained, _ = point_trained
+    planner = Planner.from_configs(COARSE, config)
+    row = trained[trained["phase"] == "train"].iloc[-1]
+    trace, _ = planner.evaluate_rollout(recorded_rollout(row))
+    np.testing.assert_array_equal(
+        trace.q_peg_bottom[-1],
+        row[["final_bottom_x_m", "final_bottom_y_m", "final_bottom_theta_rad"]].to_numpy(float),
+    )
+    assert planner.training_scene_config.solver.contact_model == "point"
+    assert planner.scene.config.solver.contact_model == "hydroelastic"
