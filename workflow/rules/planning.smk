@@ -29,6 +29,9 @@ rule redeploy:
         rollouts=f"results/planning/{PLANNING.wildcard_pattern}/redeploy_start_std_m~{{std}}.parquet",
     log:
         f"logs/planning/{PLANNING.wildcard_pattern}_redeploy_start_std_m~{{std}}.log",
+    # A finished run's redeployments go before the next plan: a study stopped at any time
+    # holds whole runs, publishable in parts.
+    priority: 1
     conda:
         "../envs/pih.yaml"
     threads: 1
@@ -50,6 +53,9 @@ rule redeploy_model_error:
         rollouts=f"results/planning/{PLANNING.wildcard_pattern}/redeploy_model_error~{{error}}.parquet",
     log:
         f"logs/planning/{PLANNING.wildcard_pattern}_redeploy_model_error~{{error}}.log",
+    # A finished run's redeployments go before the next plan: a study stopped at any time
+    # holds whole runs, publishable in parts.
+    priority: 1
     conda:
         "../envs/pih.yaml"
     threads: 1
