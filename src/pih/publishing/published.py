@@ -109,6 +109,16 @@ PUBLISHED_STUDIES = {
             in_parts=True,
             pools=("paper",),
         ),
+        # The paper's thesis: trained in point contact, deployed on the hydroelastic scene; paired
+        # by seed key with the sim-to-real study's runs on the real hole.
+        PublishedStudy(
+            "contact_model",
+            ("config/config.yaml", "config/contact_model.yaml"),
+            "contact-model study",
+            RUN_GLOBS,
+            page="docs/contact_model.md",
+            in_parts=True,
+        ),
         # Planning runs only; the default's 12 runs are its runs on the real hole at -40 and -30
         # mm, draw for draw.
         PublishedStudy(
