@@ -7,7 +7,10 @@ settings, each run in a fresh process, on the same sweep point, alternating A B 
 - baseline: the study's setting before the speed work: Drake's discrete `lagged` SAP at a 0.5 ms
   step (retry 0.25 ms), sampled output ports, the scene of ``--configfile`` otherwise;
 - candidate: the scene of ``--configfile`` (default config/config.yaml) with ``--set
-  scene.KEY=VALUE`` overrides, i.e. a lever to measure.
+  scene.KEY=VALUE`` overrides, i.e. a lever to measure; or with ``--set
+  planner.simulator.KEY=VALUE`` the planner's own simulator, which changes only the training
+  rollouts (e.g. ``planner.simulator.contact_model=point``: trained in point contact, deployed on
+  the scene).
 
 Both run with the allocator the workflow preloads (tcmalloc or jemalloc when installed) and the
 same Drake. The default point (our rule, start −31 mm, seed 4) presses into the hole from
@@ -17,6 +20,7 @@ candidate seconds (summed over the rounds), PASS when R ≥ 2 (issue 44's goal).
 faster must also pass the step check (benchmarks/step_convergence.py) to become the study's.
 
     python benchmarks/planner.py [--set scene.solver.time_step_s=0.001] [--iterations 10]
+                                 [--set planner.simulator.contact_model=point]
                                  [--goal deepest_explored] [--start-x-m -0.031] [--seed 4]
                                  [--repeats 1] [--configfile config/config.yaml]
 """
@@ -24,13 +28,16 @@ faster must also pass the step check (benchmarks/step_convergence.py) to become 
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import os
 import subprocess
 import sys
 import time
 
-from pih.config import ConfigError, from_mapping, to_mapping
+import yaml
+
+from pih.config import ConfigError, from_mapping, set_paths, to_mapping
 from pih.planning.config import PlannerConfig, replace
 from pih.planning.planner import Planner
 from pih.scene.config import SceneConfig
@@ -62,9 +69,23 @@ def one_run(spec: dict) -> None:
                 "diverged": int((rows["status"] != "ok").sum()),
                 "retried": int((rows["time_step_s"] != scene.solver.time_step_s).sum()),
                 "inserted": int(rows["success"].sum()),
+                "deployed": record.deploy_success_rate,
             }
         )
     )
+
+
+def planner_with(planner: dict, settings: list[str]) -> dict:
+    """The planner section with ``planner.simulator.KEY=VALUE`` settings (values read as YAML,
+    never evaluated), validated."""
+    changed = copy.deepcopy(planner)
+    for setting in settings:
+        key, sep, value = setting.partition("=")
+        if not sep:
+            raise ConfigError(f"--set {setting!r}: expected planner.simulator.<key>=<value>")
+        set_paths(changed, {key.removeprefix("planner."): yaml.safe_load(value)}, "--set planner.")
+    from_mapping(PlannerConfig, changed, "--set planner")
+    return changed
 
 
 def timed(spec: dict, preload: str) -> dict:
@@ -83,7 +104,9 @@ def main() -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("--set", action="append", default=[], metavar="scene.KEY=VALUE")
+    parser.add_argument(
+        "--set", action="append", default=[], metavar="scene.KEY=VALUE|planner.simulator.KEY=VALUE"
+    )
     parser.add_argument("--iterations", type=int, default=10)
     parser.add_argument(
         "--goal",
@@ -100,10 +123,13 @@ def main() -> int:
         one_run(json.loads(args.child))
         return 0
 
+    simulator = [s for s in args.set if s.startswith("planner.simulator.")]
     try:
         config = load_config(args.configfile)
         scene = config["scene"]
-        candidate = scene_with(scene, scene_settings(args.set), "--set scene")
+        scene_sets = [s for s in args.set if s not in simulator]
+        candidate = scene_with(scene, scene_settings(scene_sets), "--set scene")
+        candidate_planner = planner_with(config["planner"], simulator)
         baseline = scene_with(
             scene,
             {
@@ -118,12 +144,13 @@ def main() -> int:
         print(f"benchmarks/planner.py: {error}", file=sys.stderr)
         return 1
     run = {k: getattr(args, k) for k in ("iterations", "goal", "start_x_m", "seed")}
-    run["planner"] = config["planner"]
+    planners = {"baseline": config["planner"], "candidate": candidate_planner}
     allocator = preloaded_allocator()
     seconds = {"baseline": 0.0, "candidate": 0.0}
     for _ in range(args.repeats):
         for name, setting in (("baseline", baseline), ("candidate", candidate)):
-            figures = timed({**run, "scene": to_mapping(setting)}, allocator)
+            spec = {**run, "scene": to_mapping(setting), "planner": planners[name]}
+            figures = timed(spec, allocator)
             seconds[name] += figures["seconds"]
             solver = setting.solver
             overrides = f" with {' '.join(args.set)}" if name == "candidate" and args.set else ""
@@ -134,7 +161,7 @@ def main() -> int:
                 f"{args.iterations} iterations ({1e3 * figures['seconds'] / figures['rollouts']:.0f}"
                 f" ms per rollout incl. DMP and costs); {figures['inserted']} of "
                 f"{figures['rollouts']} rollouts inserted, {figures['diverged']} diverged, "
-                f"{figures['retried']} retried",
+                f"{figures['retried']} retried; deployed {figures['deployed']:.0%} on the scene",
                 flush=True,
             )
     ratio = seconds["baseline"] / seconds["candidate"]
