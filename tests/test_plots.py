@@ -99,6 +99,28 @@ def test_force_scatter_names_the_diagonal_in_both_panels():
         assert "(N)" in ax.get_xlabel() and "(N)" in ax.get_ylabel()
 
 
+def test_a_dense_force_scatter_is_a_pdf_of_a_person_s_size(tmp_path):
+    """Fig. 5 draws every aligned sample (≈ 3.6e5 an offset in the validation): its points are
+    rasterized in the PDF, its axes and text stay vector, so the file stays ≤ 2 MB (issue 71)."""
+    rng = np.random.default_rng(0)
+    n = 200_000
+    aligned = {
+        ("hydroelastic", offset): pd.DataFrame(
+            {
+                f"{kind}_{q}": rng.normal(size=n)
+                for kind in ("theory", "sim")
+                for q in ("f_x_n", "f_z_n")
+            }
+        )
+        for offset in (0.001, 0.002)
+    }
+    fig = plots.force_scatter(aligned)
+    assert all(line.get_rasterized() for ax in fig.axes for line in ax.lines[:-1])
+    assert not any(ax.xaxis.label.get_rasterized() for ax in fig.axes)
+    plots.save(fig, tmp_path / "fig5.png", tmp_path / "fig5.pdf")
+    assert (tmp_path / "fig5.pdf").stat().st_size <= 2_000_000
+
+
 def test_cost_bands_differ_by_more_than_colour():
     bands = pd.DataFrame(
         {
