@@ -150,6 +150,9 @@ def draw_set(paths: list[Path], size: int = SET_SIZE) -> pd.DataFrame:
     planner_config: PlannerConfig | None = None
     for path in sorted(paths):
         run = RecordedRun.read(path)
+        if run.planner.simulator.scene_changes or run.planner.simulated_hole != "true_hole":
+            # The set replays training rows on the real scene, where these did not run.
+            raise SystemExit(f"{path}: trained in a simulator other than the real scene")
         rows = run.rollouts[run.rollouts["phase"] == "train"]
         late = rows[rows["iteration"] > rows["iteration"].max() / 2].copy()
         late["run"] = path.parent.name

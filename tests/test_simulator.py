@@ -26,6 +26,15 @@ def planner_from(**simulator: object) -> PlannerConfig:
     return from_mapping(PlannerConfig, mapping, "planner")
 
 
+def test_a_simulator_setting_that_changes_nothing_is_refused():
+    """A point stiffness for a hydroelastic training simulator, or the scene's own contact model,
+    would label runs as trained elsewhere that trained on the real scene."""
+    with pytest.raises(ConfigError, match=r"planner\.simulator\.point_stiffness_n_per_m"):
+        Planner.from_configs(COARSE, planner_from(point_stiffness_n_per_m=1.0e7))
+    with pytest.raises(ConfigError, match=r"planner\.simulator\.contact_model: 'hydroelastic'"):
+        Planner.from_configs(COARSE, planner_from(contact_model="hydroelastic"))
+
+
 def test_simulator_keys_are_checked_before_anything_runs():
     """A bad value, or a key that is no difference a training simulator may have (e.g. the
     peg's geometry, which would change what deployment measures), is refused naming the key."""
@@ -61,7 +70,7 @@ def test_simulator_keys_are_training_keys_that_share_the_points_draws():
 def point_trained() -> tuple[PlannerConfig, pd.DataFrame, pd.DataFrame]:
     """One tiny run trained in point contact on the hydroelastic scene, and its twin on a scene
     that is point contact throughout."""
-    config = short_config(iterations=2, population_size=2, deploy_policy="final_mean")
+    config = short_config(iterations=2, population_size=2)  # last_inserted_mean: mean rollouts too
     simulator = replace(config, simulator=SimulatorConfig(**POINT))
     point_scene = COARSE.replace(
         solver__contact_model="point", material__point_stiffness_n_per_m=1.0e7
@@ -74,12 +83,15 @@ def point_trained() -> tuple[PlannerConfig, pd.DataFrame, pd.DataFrame]:
 def test_training_runs_in_the_simulator_and_deployment_on_the_real_scene(point_trained):
     config, trained, everywhere = point_trained
     train, twin = (
-        rows[rows["phase"] == "train"].reset_index(drop=True) for rows in (trained, everywhere)
+        rows[rows["phase"].isin(["train", "mean"])].reset_index(drop=True)
+        for rows in (trained, everywhere)
     )
+    assert set(train["phase"]) == {"train", "mean"}
     # Training is the point-contact scene's, rollout for rollout, with the same draws.
     pd.testing.assert_frame_equal(train, twin)
     # Deployment is the real (hydroelastic) scene's: the trials replay there, not in point contact.
-    deploy = trained[trained["phase"] == "deploy"]
+    deploy = trained[trained["phase"].isin(["deploy", "deploy_final_mean"])]
+    assert set(deploy["phase"]) == {"deploy", "deploy_final_mean"}
     real = Planner.from_configs(COARSE, dataclasses.replace(config, simulator=SimulatorConfig()))
     point = Planner.from_configs(COARSE, config)
     finals = {"real": [], "training": []}

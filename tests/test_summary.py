@@ -209,6 +209,33 @@ def test_the_headline_at_a_finer_step_stands_beside_the_runs_own():
         ["a", "one_level", 10, "9 / 1 / 0", 0.0215, "8 / 1 / 1", 0.0215],
         ["a", "b", 10, "9 / 1 / 0", 0.0215, "—", "—"],
     ]
+    # With a compared dimension (its levels do not pool): a row a pair and level, each step's
+    # counts from the time-step rows of that level.
+    per_level = pd.DataFrame(
+        [
+            {"method": "a", "versus": "one_level", "dimension": "time_step_s", "level": level, **p}
+            for level, p in (
+                ("starts 0.001 m off at 0.0005 s, friction = 0.3", pair),
+                ("starts 0.001 m off at 0.0005 s, friction = 0.5", fewer),
+                (
+                    "starts 0.001 m off at 6.25e-05 s, friction = 0.3",
+                    {**pair, "better": 8, "tied": 1},
+                ),
+                ("starts 0.001 m off at 6.25e-05 s, friction = 0.5", fewer),
+                ("starts 0.001 m off at 0.0005 s", pair),  # pooled over the levels: not shown
+            )
+        ]
+        + [
+            {"method": "a", "versus": "one_level", "dimension": "friction", **p}
+            for p in ({"level": "0.3, starts 0.001 m off", **pair},)
+        ]
+    )
+    pairs = step_pairs(per_level, _robustness())
+    assert pairs.columns.tolist()[:4] == ["level", "method", "versus", "pairs"]
+    assert pairs.drop(columns=["method", "versus"]).values.tolist() == [
+        ["friction = 0.3", 10, "9 / 1 / 0", 0.0215, "8 / 1 / 1", 0.0215],
+        ["friction = 0.5", 6, "6 / 0 / 0", 0.0312, "6 / 0 / 0", 0.0312],
+    ]
 
 
 def test_summary_names_the_code_version_and_links_the_tables():

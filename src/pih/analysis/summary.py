@@ -245,19 +245,29 @@ def _replayed_headline(
 
 
 def step_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
-    """The paired comparisons on the headline's offset starts, pooled, one row a pair: at the
-    runs' own step (:func:`perturbed_pairs`) and at each step their trials were replayed at
+    """The paired comparisons on the headline's offset starts, one row a pair: at the runs' own
+    step and at each step their trials were replayed at
     (:func:`pih.analysis.time_step.time_step_pairs`' rows), ``better / worse / tied`` and the
-    sign test's p for each; "—" where a pair's runs were not all replayed."""
+    sign test's p for each; "—" where a pair's runs were not all replayed. Pooled, the runs' own
+    step reads every pair (:func:`perturbed_pairs`); with compared dimensions, whose levels do
+    not pool, a row a pair and joint level (``level``, as the time-step rows name it)."""
     std = headline_std(on_training_scene(robustness))
-    coarse = perturbed_pairs(paired, robustness)
     rows = paired[paired["dimension"] == "time_step_s"]
-    steps = rows["level"].str.extract(rf"^starts {std:g} m off at ([^ ,]+) s$")[0].dropna()
-    at_step = rows.loc[steps.index].assign(step=steps.astype(float))
-    pair = ["method", "versus"]
-    table = coarse[[*pair, "pairs"]].copy()
+    parts = rows["level"].str.extract(rf"^starts {std:g} m off at ([^ ,]+) s(?:, (.+))?$")
+    found = parts[0].notna()
+    at_step = rows[found].assign(
+        step=parts.loc[found, 0].astype(float), level=parts.loc[found, 1].fillna("")
+    )
+    own_step = at_step["step"].max()
+    own = perturbed_pairs(paired, robustness)
+    per_level = "level" in own.columns
+    at_step = at_step[(at_step["level"] != "") == per_level]
+    pair = ["level", "method", "versus"] if per_level else ["method", "versus"]
+    if per_level:
+        own = at_step[at_step["step"] == own_step]
+    table = own[[*pair, "pairs"]].reset_index(drop=True)
     for step in sorted(at_step["step"].unique(), reverse=True):
-        here = coarse if step == at_step["step"].max() else at_step[at_step["step"] == step]
+        here = own if step == own_step else at_step[at_step["step"] == step]
         here = table[pair].merge(here, on=pair, how="left")
         whole = here["pairs"].to_numpy() == table["pairs"].to_numpy()
         table[f"at {1e3 * step:g} ms: better / worse / tied"] = [

@@ -60,7 +60,9 @@ def replay(run: Path, query: str, output: Path | None, settings: list[str]) -> i
                 "replay", config=config, inputs=[run / "rollouts.parquet"], extra=extra
             )
             target_file = output or run / f"{name}.rrd"
-            record_insertion(target_file, trace, scene, name, provenance)
+            # Drawn in the scene it ran in: a training row in the planner's own simulator.
+            ran_in = planner.scene_for(rollout.simulated_hole).config
+            record_insertion(target_file, trace, ran_in, name, provenance)
             print(f"# {target_file}: the first row's replay, as a Rerun recording")
         pose = ",".join(f"{v:.9g}" for v in recorded_pose(row, "final_bottom"))
         print(

@@ -211,6 +211,24 @@ class SimulatorConfig:
             stiffness,
         )
 
+    def check_scene(self, scene_contact_model: str, prefix: str = "planner.simulator.") -> None:
+        """Refuse a setting that would change nothing on a real scene of this contact model:
+        labelled runs that trained on the real scene after all."""
+        model = self.contact_model or scene_contact_model
+        require(
+            self.point_stiffness_n_per_m is None or model != "hydroelastic",
+            prefix + "point_stiffness_n_per_m",
+            f"null while the training contact model is hydroelastic (set {prefix}contact_model: "
+            "point, or leave the stiffness null)",
+            self.point_stiffness_n_per_m,
+        )
+        require(
+            self.contact_model is None or self.contact_model != scene_contact_model,
+            prefix + "contact_model",
+            f"null or another model than the scene's own ({scene_contact_model})",
+            self.contact_model,
+        )
+
     @property
     def scene_changes(self) -> dict[str, object]:
         """The training simulator's differences from the real scene, as ``SceneConfig.replace``

@@ -88,7 +88,8 @@ ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
         "m",
         (
             "x of the hole in the rollout's simulator: the real hole's, or with planner."
-            "simulated_hole a sensed one's (training rollouts only)"
+            "simulated_hole a sensed one's (training rollouts only; their contact is "
+            "planner.simulator's)"
         ),
     ),
     "simulated_hole_y_m": ("m", "y of the hole in the rollout's simulator"),
@@ -118,7 +119,8 @@ ROLLOUT_COLUMNS: dict[str, tuple[str, str]] = {
         "1",
         (
             "final_hole_error_m <= success_tolerance_m and not diverged: inserted into the hole "
-            "of the rollout's simulator (the real one unless planner.simulated_hole)"
+            "of the rollout's simulator (training rollouts: planner.simulated_hole's, in "
+            "planner.simulator's contact; deployment trials: the real scene)"
         ),
     ),
     "is_best": ("1", "lowest cost of its training iteration"),

@@ -403,8 +403,9 @@ def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> N
     for point in points or [{}]:
         try:
             data = override(config, point)
-            from_mapping(SceneConfig, data["scene"], "scene")
+            scene = from_mapping(SceneConfig, data["scene"], "scene")
             planner = from_mapping(PlannerConfig, data["planner"], "planner")
+            planner.simulator.check_scene(scene.solver.contact_model)
             check_limits(data)
         except ConfigError as error:
             raise ConfigError(f"{error}{_at_point(config, point, error)}") from None
@@ -423,8 +424,9 @@ def _at_point(config: Mapping[str, Any], point: Mapping[str, Any], error: Config
         return ""
     try:
         data = override(config, {})
-        from_mapping(SceneConfig, data["scene"], "scene")
-        from_mapping(PlannerConfig, data["planner"], "planner")
+        scene = from_mapping(SceneConfig, data["scene"], "scene")
+        planner = from_mapping(PlannerConfig, data["planner"], "planner")
+        planner.simulator.check_scene(scene.solver.contact_model)
         check_limits(data)
     except ConfigError as base:
         if str(base) == str(error):
