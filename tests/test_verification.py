@@ -188,6 +188,9 @@ def test_outputs_are_compared_bit_for_bit_column_by_column(tmp_path):
     write_table(frame, old, record("plan"), units)
     write_table(frame, new, record("plan"), units)  # other provenance, same data
     assert compare_outputs({"r": old}, {"r": new})[1] == []
+    reworded = {**units, "cost": ("1", "the cost J, reworded")}  # a column's description
+    write_table(frame, new, record("plan"), reworded)
+    assert compare_outputs({"r": old}, {"r": new})[1] == []
     frame["cost"] = frame["cost"] * (1 + 1e-12)
     write_table(frame, new, record("plan"), units)
     assert compare_outputs({"r": old}, {"r": new})[1] == ["r: column cost differs"]

@@ -265,8 +265,11 @@ def run_item(tree: Path, item: Item, workdir: Path) -> dict[str, Path]:
 
 def column_digests(path: Path) -> dict[str, str]:
     """sha256 of each column's data, bit for bit (NaNs by their bits), without the schema's
-    metadata (the provenance and timings)."""
-    table = pq.read_table(path).replace_schema_metadata(None).combine_chunks()
+    metadata (the provenance and timings) or the columns' (units and descriptions, which a
+    change of wording moves)."""
+    table = pq.read_table(path).combine_chunks()
+    bare = pa.schema([field.remove_metadata() for field in table.schema])
+    table = pa.Table.from_arrays(table.columns, schema=bare)
     digests = {}
     for name in table.column_names:
         sink = pa.BufferOutputStream()
