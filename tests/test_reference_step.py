@@ -139,3 +139,23 @@ def test_replays_of_other_physics_or_other_data_are_never_mixed(tmp_path):
         ConfigError, match=r"replays .*redeploy_start_std_m~0\.001\.parquet as it was"
     ):
         pool(*find_outputs([planning]), current_codes=frozenset(codes))
+
+
+def test_tables_without_replays_leave_no_time_step_table_behind(tmp_path):
+    """Re-made after its replays are gone, a study's summary holds no time-step table from
+    before: it would report replays the tables no longer pool."""
+    import shutil
+
+    from pih.analysis.planning_summary import write_pooled_summary
+    from pih.analysis.pooling import find_outputs, pool
+
+    run = min(PLANNING.glob("start_x_m~-0.04_goal~*_seed~0"))
+    copy = tmp_path / "planning" / run.name
+    shutil.copytree(run, copy)
+    summary = tmp_path / "planning" / "summary"
+    write_pooled_summary(pool(*find_outputs([tmp_path / "planning"])), summary)
+    assert (summary / "time_step.parquet").is_file() and (summary / "time_step.md").is_file()
+    for replay in copy.glob("replay_*.parquet"):
+        replay.unlink()
+    write_pooled_summary(pool(*find_outputs([tmp_path / "planning"])), summary)
+    assert not (summary / "time_step.parquet").exists() and not (summary / "time_step.md").exists()

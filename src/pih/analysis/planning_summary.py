@@ -73,6 +73,9 @@ def write_planning_summary(
         markdown["time_step"] = "\n\n".join(
             markdown_table(t) for t in (tables.time_step, tables.time_step_pairs)
         )
+    else:  # no replays now: an earlier pooling's time-step table would misreport them
+        for suffix in (".parquet", ".md"):
+            (directory / f"time_step{suffix}").unlink(missing_ok=True)
     for name, text in markdown.items():
         write_text(directory / f"{name}.md", text, record)
     write_text(directory / "success.csv", tables.success.to_csv(index=False))
