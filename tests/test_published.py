@@ -482,17 +482,36 @@ def test_stable_goal_prose_quotes_the_pooled_tables():
         f"trials from offset starts; with the bias subtracted (`calibrated_mean_sensed_hole`), in "
         f"{inserted[calibrated]} of {total}." in readme
     )
+    at_step = pd.read_parquet(summary / "time_step.parquet")
+    fine = at_step[at_step["time_step_s"] == 6.25e-5]
+    offset_fine = fine[(fine["phase"] == "deploy") & (fine["start_std_m"] == 0.001)]
+    offset_fine = offset_fine.set_index("method")
+    assert (offset_fine.loc[[mean, calibrated], "runs"] == runs).all()
+    replayed = (offset_fine["deploy_success_rate"] * offset_fine["trials"]).round().astype(int)
+    moved = int(fine.loc[fine["method"] == mean, "flipped_trials"].sum())
+    assert (
+        f"At the 0.0625 ms reference: {replayed[mean]} and {replayed[calibrated]} (the step "
+        f"moves {moved} of the first one's {4 * total} trials)" in readme
+    )
     assert f"`published/stable_goal/`: {2 * runs} runs paired" in readme
     pairs = paired[(paired["dimension"] == "start_std_m") & (paired["level"] == "0.001")]
     pairs = pairs.set_index(["method", "versus"])
     against = pairs.loc[[(one, mean), (one, calibrated)]]
     assert (against["worse"] == runs).all() and against["sign_test_p"].nunique() == 1
+    steps = paired[paired["dimension"] == "time_step_s"].set_index(["level", "method", "versus"])
+    reference = steps.loc["starts 0.001 m off at 6.25e-05 s"]
+    assert (reference.loc[(one, calibrated), "worse"], reference.loc[(one, mean), "worse"]) == (
+        runs,
+        runs - 1,
+    )
     assert (
-        f"Each beat one-level at all {runs} starts (p = {against['sign_test_p'].iloc[0]:.3g})"
-        in readme
+        f"Each beat one-level at all {runs} starts (p = {against['sign_test_p'].iloc[0]:.3g}; at "
+        f"the reference the first one at {runs - 1}, "
+        f"p = {reference.loc[(one, mean), 'sign_test_p']:.3g})" in readme
     )
     rule_pairs = [(rule, variant) for rule in rules for variant in (mean, calibrated)]
     assert (pairs.loc[rule_pairs, "sign_test_p"] >= 0.05).all()
+    assert (reference.loc[rule_pairs, "sign_test_p"] >= 0.05).all()  # "at either step"
     closest = pairs.loc[rule_pairs].sort_values("sign_test_p").iloc[0]
     assert closest.name == (rules[0], mean)
     assert (
