@@ -4,6 +4,7 @@ scene whose contact model differs from the real one; deployment trials always on
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -16,6 +17,7 @@ from pih.planning.planner import Planner
 from pih.planning.run_record import recorded_rollout
 from pih.study.points import is_method_key, seed_key
 
+ROOT = Path(__file__).resolve().parents[1]
 POINT = {"contact_model": "point", "point_stiffness_n_per_m": 1.0e7}
 
 
@@ -26,13 +28,24 @@ def planner_from(**simulator: object) -> PlannerConfig:
     return from_mapping(PlannerConfig, mapping, "planner")
 
 
-def test_a_simulator_setting_that_changes_nothing_is_refused():
+def test_a_simulator_setting_that_changes_nothing_is_refused_before_any_job():
     """A point stiffness for a hydroelastic training simulator, or the scene's own contact model,
-    would label runs as trained elsewhere that trained on the real scene."""
-    with pytest.raises(ConfigError, match=r"planner\.simulator\.point_stiffness_n_per_m"):
-        Planner.from_configs(COARSE, planner_from(point_stiffness_n_per_m=1.0e7))
-    with pytest.raises(ConfigError, match=r"planner\.simulator\.contact_model: 'hydroelastic'"):
-        Planner.from_configs(COARSE, planner_from(contact_model="hydroelastic"))
+    would label runs as trained elsewhere that trained on the real scene. The planner itself
+    takes both: a point-trained run is redeployed on its simulator's own scene (a model error)."""
+    from pih.study.config import check_study, load_config, study_points
+
+    for simulator, key in (
+        ({"point_stiffness_n_per_m": 1.0e7}, "point_stiffness_n_per_m"),
+        ({"contact_model": "hydroelastic"}, "contact_model"),
+    ):
+        config = load_config([str(ROOT / "config" / "config.yaml")])
+        config["planner"]["simulator"].update(simulator)
+        with pytest.raises(ConfigError, match=rf"^planner\.simulator\.{key}: "):
+            check_study(config, study_points(config))
+    point_scene = COARSE.replace(
+        solver__contact_model="point", material__point_stiffness_n_per_m=1.0e7
+    )
+    Planner.from_configs(point_scene, planner_from(**POINT))  # the simulator's own scene
 
 
 def test_simulator_keys_are_checked_before_anything_runs():

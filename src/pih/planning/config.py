@@ -212,8 +212,9 @@ class SimulatorConfig:
         )
 
     def check_scene(self, scene_contact_model: str, prefix: str = "planner.simulator.") -> None:
-        """Refuse a setting that would change nothing on a real scene of this contact model:
-        labelled runs that trained on the real scene after all."""
+        """Refuse a setting that would change nothing on the study's real scene of this contact
+        model: labelled runs that trained on the real scene after all. A study's check, not the
+        planner's: a redeployment on a model error may run on the simulator's own scene."""
         model = self.contact_model or scene_contact_model
         require(
             self.point_stiffness_n_per_m is None or model != "hydroelastic",

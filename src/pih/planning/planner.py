@@ -152,7 +152,6 @@ class Planner:
 
     def __init__(self, scene: PegInHoleScene, config: PlannerConfig, seed_key: str = "") -> None:
         config.validate()
-        config.simulator.check_scene(scene.config.solver.contact_model)
         self.scene = scene
         self._training: tuple[bytes, PegInHoleScene] | None = None
         self.config = config
