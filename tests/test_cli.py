@@ -357,9 +357,9 @@ def test_show_reads_every_output_type_with_its_provenance(tmp_path, capsys, tabl
     import matplotlib.pyplot as plt
     from test_recordings import _insertion_trace
 
-    from pih.analysis import plots
     from pih.records.outputs import markdown_table, write_text
     from pih.records.recordings import record_insertion
+    from pih.reporting import plots
     from pih.scene.config import SceneConfig
 
     provenance = record("test", seeds={"noise": 7})
@@ -427,7 +427,7 @@ def test_show_names_a_missing_file_and_the_closest_one(tmp_path, capsys, table):
 def test_run_figure_titles_every_panel_counts_whole_iterations_and_names_only_what_it_draws(
     planning_run,
 ):
-    from pih.analysis import plots
+    from pih.reporting import plots
     from pih.scene.config import SceneConfig
 
     run, _ = planning_run

@@ -221,8 +221,8 @@ def test_a_bigger_old_study_is_read_at_the_new_ones_sweep_points(tmp_path, capsy
     read at NEW's sweep points, its tables remade from those runs, and reproduces bit for bit
     (here: the published default's runs at one start and seed against the whole published
     default)."""
-    from pih.analysis.planning_summary import write_pooled_summary
     from pih.analysis.pooling import find_outputs, pool
+    from pih.reporting.planning_summary import write_pooled_summary
 
     old = ROOT / "published" / "default"
     new = tmp_path / "new"
@@ -256,8 +256,8 @@ def test_two_studies_that_each_hold_runs_the_other_lacks_are_read_at_their_share
     """The paper-scale study (seed 0 only) against a fresh default run (seeds 0-1): both are
     read at the points they share, their tables remade, and reproduce bit for bit (here: the
     published default's runs at -40 mm against its seed-0 runs); not when NEW lost a run."""
-    from pih.analysis.planning_summary import write_pooled_summary
     from pih.analysis.pooling import find_outputs, pool
+    from pih.reporting.planning_summary import write_pooled_summary
 
     published = ROOT / "published" / "default"
     trees = {"old": "start_x_m~-0.04_*", "new": "start_x_m~*_seed~0"}

@@ -20,8 +20,8 @@ AGGREGATE = (
     "pih.analysis.aggregate",
     "pih.analysis.run_summary",
     "pih.analysis.pooling",
-    "pih.analysis.summary",
-    "pih.analysis.plots",
+    "pih.reporting.summary",
+    "pih.reporting.plots",
     "pih.publishing.published",
     "pih.publishing.compare",
 )
@@ -130,6 +130,7 @@ LAYERS = (
     "planning",
     "study",
     "analysis",
+    "reporting",
     "publishing",
     "workflow",
     "cli",

@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 from PIL import Image
 
-from pih.analysis import plots
 from pih.records.provenance import record
+from pih.reporting import plots
 
 
 def _saved(tmp_path, name):

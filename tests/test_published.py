@@ -886,8 +886,8 @@ def test_the_model_error_prose_and_table_quote_the_paper_scale_study():
     """README's model-error sentence and docs/planner.md's table come from the paper-scale
     study's tables: trials inserted over the five errors per method, each rule's pairs against
     one-level under every error (fewest wins, largest p), the error that cost ours most."""
-    from pih.analysis.summary import model_error_rows
     from pih.records.outputs import markdown_table
+    from pih.reporting.summary import model_error_rows
 
     summary = ROOT / PAPER.directory / "planning" / "summary"
     robustness = pd.read_parquet(summary / "robustness.parquet")

@@ -146,8 +146,8 @@ def test_tables_without_replays_leave_no_time_step_table_behind(tmp_path):
     before: it would report replays the tables no longer pool."""
     import shutil
 
-    from pih.analysis.planning_summary import write_pooled_summary
     from pih.analysis.pooling import find_outputs, pool
+    from pih.reporting.planning_summary import write_pooled_summary
 
     run = min(PLANNING.glob("start_x_m~-0.04_goal~*_seed~0"))
     copy = tmp_path / "planning" / run.name

@@ -200,7 +200,7 @@ def test_model_errors_are_checked_before_any_job():
 
 def test_model_errors_get_their_own_rows_and_pairs_and_leave_the_headline_alone():
     from pih.analysis.aggregate import robustness_pairs, robustness_table
-    from pih.analysis.summary import model_error_rows, on_training_scene
+    from pih.reporting.summary import model_error_rows, on_training_scene
 
     keys = ["planner.start_x_m", "planner.goal"]
     rows = []
@@ -272,7 +272,7 @@ def test_offset_start_pairs_are_split_by_the_simulator_mode_and_lead_the_summary
     """From offset starts, one-level and bilevel are paired within each simulator mode (the
     modes are different designs: their points do not pool), and the summary quotes those."""
     from pih.analysis.aggregate import robustness_pairs, robustness_table
-    from pih.analysis.summary import perturbed_pairs
+    from pih.reporting.summary import perturbed_pairs
 
     keys = ["planner.start_x_m", "planner.goal", "planner.simulated_hole"]
     # (start, mode) -> (ours, one-level) from offset starts: ours wins on the true hole,

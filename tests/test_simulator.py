@@ -133,3 +133,81 @@ def test_a_training_rollout_in_the_simulator_replays_exactly(point_trained):
     )
     assert planner.training_scene_config.solver.contact_model == "point"
     assert planner.scene.config.solver.contact_model == "hydroelastic"
+
+
+def recorded(**simulator: object) -> dict[str, object]:
+    """A run's recorded config: the default scene (hydroelastic) and a planner trained in
+    ``simulator``."""
+    from pih.scene.config import SceneConfig
+
+    return {"scene": to_mapping(SceneConfig()), "planner": to_mapping(planner_from(**simulator))}
+
+
+def test_the_simulators_prediction_is_the_model_error_that_makes_reality_its_scene():
+    """A deployment predicts what the simulator would see only on its own scene: for a run
+    trained on the real scene that is the real scene; for a point-trained one, the model error
+    that turns the real scene into the simulator (the stiffness too), not any other."""
+    from pih.analysis.run_summary import on_simulator
+
+    point_1e7 = {"solver.contact_model": "point", "material.point_stiffness_n_per_m": 1.0e7}
+    point_1e6 = {**point_1e7, "material.point_stiffness_n_per_m": 1.0e6}
+    assert on_simulator(recorded())
+    assert not on_simulator(recorded(), point_1e7)
+    assert not on_simulator(recorded(**POINT))
+    assert on_simulator(recorded(**POINT), point_1e7)
+    assert not on_simulator(recorded(**POINT), point_1e6)
+    assert not on_simulator(recorded(**POINT), {**point_1e7, "material.friction": 0.3})
+
+
+def deployments(rows: list[tuple]) -> pd.DataFrame:
+    """Deployment rows as pooling makes them: (method, contact model, stiffness, seed, hole,
+    model error, on its simulator, success), all at starts 1 mm off."""
+    names = [
+        "method",
+        "planner.simulator.contact_model",
+        "planner.simulator.point_stiffness_n_per_m",
+        "planner.seed",
+        "planner.simulated_hole",
+        "model_error",
+        "on_simulator",
+        "deploy_success_rate",
+    ]
+    return pd.DataFrame(rows, columns=names).assign(start_std_m=0.001, run="")
+
+
+def test_point_trained_runs_are_compared_with_their_prediction_and_their_twins():
+    """Each point-trained run is read on the real scene, against its simulator's prediction and
+    against the run trained on the real scene's model at the same seed key; runs trained on a
+    sensed hole and other model errors stay out."""
+    from pih.analysis.training_model import REAL_SCENE, training_model_table
+
+    keys = [
+        "planner.goal",
+        "planner.seed",
+        "planner.simulator.contact_model",
+        "planner.simulator.point_stiffness_n_per_m",
+        "planner.simulated_hole",
+    ]
+    frame = deployments(
+        [
+            ("one_level", "None", "None", "0", "true_hole", "none", True, 0.5),
+            ("one_level", "None", "None", "1", "true_hole", "none", True, 0.2),
+            ("one_level", "None", "None", "1", "sensed_per_run", "none", True, 0.0),
+            ("one_level", "None", "None", "0", "true_hole", "friction", False, 0.0),
+            ("one_level", "point", "10000000.0", "0", "true_hole", "none", False, 0.3),
+            ("one_level", "point", "10000000.0", "0", "true_hole", "point_1e7", True, 0.9),
+            ("one_level", "point", "10000000.0", "0", "true_hole", "point_1e6", False, 0.0),
+            ("one_level", "point", "10000000.0", "1", "true_hole", "none", False, 0.2),
+            ("one_level", "point", "10000000.0", "1", "true_hole", "point_1e7", True, 0.2),
+        ]
+    )
+    table = training_model_table(frame, keys, 0.001).set_index("training_model")
+    assert list(table.index) == [REAL_SCENE, "point, 1e+07 N/m"]
+    real, point = table.loc[REAL_SCENE], table.loc["point, 1e+07 N/m"]
+    assert real["runs"] == 2 and real["deploy_success_rate"] == pytest.approx(0.35)
+    assert real["pairs"] == 0 and np.isnan(real["sign_test_p"])
+    assert point["runs"] == 2 and point["deploy_success_rate"] == pytest.approx(0.25)
+    assert point["predicted_success_rate"] == pytest.approx(0.55)
+    assert point["runs_mispredicted"] == 1 and point["mean_gap"] == pytest.approx(-0.3)
+    assert (point["pairs"], point["better"], point["worse"], point["tied"]) == (2, 0, 1, 1)
+    assert training_model_table(frame, ["planner.seed"], 0.001).empty

@@ -3,7 +3,7 @@
 import numpy as np
 import pandas as pd
 
-from pih.analysis.summary import (
+from pih.reporting.summary import (
     PAPER_PEARSON_R,
     chosen_variants,
     pearson_table,
@@ -306,7 +306,7 @@ def test_the_model_error_table_splits_by_a_swept_scene_key_with_pairs_per_level(
     (model error, method) row once per friction level, labelled with it, beside that level's
     deployment without the error, with the pairs against one-level at that level only."""
     from pih.analysis.aggregate import robustness_pairs, robustness_table
-    from pih.analysis.summary import model_error_rows
+    from pih.reporting.summary import model_error_rows
 
     keys = ["planner.goal", "planner.start_x_m", "scene.material.friction"]
     rows = []

@@ -417,12 +417,12 @@ def test_a_job_depends_on_the_library_modules_its_script_reaches():
     assert reached | {"planning.__init__", "scene.__init__"} <= set(plan)
     assert not {
         "analysis.aggregate",
-        "analysis.plots",
-        "analysis.summary",
+        "reporting.plots",
+        "reporting.summary",
         "analysis.pooling",
     } & set(plan)
     assert not {"validation.experiment", "validation.config"} & set(plan)
-    assert {"analysis.aggregate", "analysis.plots"} <= set(
+    assert {"analysis.aggregate", "reporting.plots"} <= set(
         imported_library_modules(scripts / "planning_aggregate.py")
     )
     assert "planning.planner" not in imported_library_modules(scripts / "whitney_curve.py")

@@ -5,9 +5,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from pih.analysis import plots
 from pih.analysis.aggregate import planning_tables
-from pih.analysis.planning_summary import write_planning_summary
 from pih.analysis.run_summary import (
     best_training_rows,
     redeployment_summaries,
@@ -16,6 +14,8 @@ from pih.analysis.run_summary import (
 )
 from pih.config import from_mapping
 from pih.records.outputs import read_provenance
+from pih.reporting import plots
+from pih.reporting.planning_summary import write_planning_summary
 from pih.scene.config import SceneConfig
 from pih.study.points import VARIANT_KEY
 from pih.workflow.jobs import job_provenance, logged

@@ -2,8 +2,8 @@
 
 import pandas as pd
 
-from pih.analysis.summary import summary_markdown
 from pih.records.outputs import read_provenance, write_text
+from pih.reporting.summary import summary_markdown
 from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):

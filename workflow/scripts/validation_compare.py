@@ -2,7 +2,6 @@
 
 import pandas as pd
 
-from pih.analysis import plots
 from pih.config import from_mapping
 from pih.records.outputs import (
     markdown_table,
@@ -11,6 +10,7 @@ from pih.records.outputs import (
     write_table,
     write_text,
 )
+from pih.reporting import plots
 from pih.scene.config import SceneConfig
 from pih.study.config import ValidationSection
 from pih.validation.experiment import (

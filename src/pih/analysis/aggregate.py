@@ -8,7 +8,6 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -19,7 +18,8 @@ from pih.analysis.run_summary import (
     level_columns,
     split_keys,
 )
-from pih.analysis.statistics import rate_over_runs, sign_test_p
+from pih.analysis.statistics import pair_counts, rate_over_runs
+from pih.analysis.training_model import simulator_keys, training_model_table
 from pih.study.points import VARIANT_KEY
 
 SEED_KEY = "planner.seed"
@@ -340,19 +340,6 @@ PAIRED_COLUMNS: dict[str, tuple[str, str]] = {
 }
 
 
-def _pair_counts(difference: pd.Series) -> dict[str, Any]:
-    """Columns of a paired comparison from the per-pair differences in deployment success."""
-    better, worse = int((difference > 0).sum()), int((difference < 0).sum())
-    return {
-        "pairs": len(difference),
-        "better": better,
-        "worse": worse,
-        "tied": len(difference) - better - worse,
-        "mean_difference": float(difference.mean()),
-        "sign_test_p": sign_test_p(better, worse),
-    }
-
-
 def paired_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
     """Every two methods compared at the sweep points both ran (common random numbers make each
     point a pair), overall and per level of every compared dimension (not start or seed, where
@@ -367,7 +354,7 @@ def paired_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame
             difference = (wide[a] - wide[b]).dropna()
             if difference.empty:
                 continue
-            rows.append({"method": a, "versus": b, **_pair_counts(difference)})
+            rows.append({"method": a, "versus": b, **pair_counts(difference)})
         return pd.DataFrame(
             rows, columns=[c for c in PAIRED_COLUMNS if c not in ("dimension", "level")]
         )
@@ -435,6 +422,9 @@ class PlanningTables:
     time_step: pd.DataFrame | None = None
     """success at the runs' own step and at a replay's (:mod:`pih.analysis.time_step`)"""
     time_step_pairs: pd.DataFrame | None = None
+    training_model: pd.DataFrame | None = None
+    """the planner's simulator against reality (:mod:`pih.analysis.training_model`); None when
+    the study sweeps no simulator"""
 
 
 def variant_pairs(summaries: pd.DataFrame, sweep_keys: list[str], reference: str) -> pd.DataFrame:
@@ -462,7 +452,7 @@ def variant_pairs(summaries: pd.DataFrame, sweep_keys: list[str], reference: str
                 "dimension": VARIANT_KEY,
                 "level": level,
                 "versus": f"{method} at {VARIANT_KEY} {reference}",
-                **_pair_counts(difference),
+                **pair_counts(difference),
             }
         )
     return pd.DataFrame(rows, columns=columns)
@@ -495,4 +485,9 @@ def planning_tables(
         robustness=robustness_table(deployments, sweep_keys),
         robustness_pairs=redeployed,
         per_run=per_run_table(summaries, deployments, sweep_keys),
+        training_model=(
+            training_model_table(deployments, sweep_keys, headline_std(deployments) or 0.0)
+            if simulator_keys(sweep_keys)
+            else None
+        ),
     )

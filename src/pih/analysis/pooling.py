@@ -22,6 +22,8 @@ import pandas as pd
 from pih.analysis.run_summary import (
     NO_MODEL_ERROR,
     model_error_name,
+    model_error_settings,
+    on_simulator,
     run_tables,
     split_keys,
     variant,
@@ -216,7 +218,7 @@ def pool(
     for run in records if redeploy_files or replay_files else []:
         by_hash.setdefault(run.sha256, []).append(run)
     for path in redeploy_files:
-        for source, redeployed_std, error, rate in _redeployments(path):
+        for source, redeployed_std, error, settings, rate in _redeployments(path):
             run = _redeployed_run(by_hash.get(source[1], []), Path(source[0])) or _outside_run(
                 path, *source
             )
@@ -224,7 +226,7 @@ def pool(
                 raise ConfigError(f"{path}: redeploys {run.path}, not one of the pooled trainings")
             lead = headline[run.training]
             deployments.append(
-                _deployment(lead, keys, name[run.training], redeployed_std, rate, error)
+                _deployment(lead, keys, name[run.training], redeployed_std, rate, error, settings)
             )
             sources.append(_source(path, name[run.training], redeployed_std, "redeployment"))
     replays, replay_records = [], []
@@ -423,6 +425,7 @@ def _deployment(
     std: float,
     rate: float,
     model_error: str = NO_MODEL_ERROR,
+    model_error_settings: Mapping[str, Any] | None = None,
 ) -> pd.DataFrame:
     row = {
         "method": run.method,
@@ -430,6 +433,7 @@ def _deployment(
         **{key: str(run.level(key)) for key in split_keys(keys)},
         "start_std_m": std,
         "model_error": model_error,
+        "on_simulator": on_simulator(run.record["config"], model_error_settings),
         "deploy_success_rate": rate,
     }
     return pd.DataFrame([row])
@@ -448,9 +452,11 @@ def _redeployed_run(candidates: list[RunRecord], source: Path) -> RunRecord | No
     return (named or candidates or [None])[0]
 
 
-def _redeployments(path: Path) -> list[tuple[tuple[str, str], float, str, float]]:
-    """((redeployed run's recorded path, its data's sha256), start std, model error, deployment
-    success) per run in a redeployment file: the ``redeploy`` rule's (one run) or ``pih redeploy
+def _redeployments(
+    path: Path,
+) -> list[tuple[tuple[str, str], float, str, dict[str, Any], float]]:
+    """((redeployed run's recorded path, its data's sha256), start std, model error, its dotted
+    scene settings, deployment success) per run in a redeployment file: the ``redeploy`` rule's (one run) or ``pih redeploy
     --output``'s (several, a ``run`` column naming their directories)."""
     record = _provenance(path, "redeploy")
     rollouts = pd.read_parquet(path)
@@ -458,17 +464,18 @@ def _redeployments(path: Path) -> list[tuple[tuple[str, str], float, str, float]
     # Files of pih redeploy before 0.4.0 recorded the std at the config's top level.
     config = record["config"].get("planner", record["config"])
     std, error = config["deploy_start_std_m"], model_error_name(record)
+    settings = model_error_settings(record)
     if "run" not in rollouts:
         sources = [item for item in inputs if Path(item[0]).name == "rollouts.parquet"]
         if len(sources) != 1:
             raise ConfigError(f"{path}: expected one redeployed run among its inputs {inputs}")
-        return [(sources[0], std, error, _deploy_rate(rollouts))]
+        return [(sources[0], std, error, settings, _deploy_rate(rollouts))]
     found = []
     for run, part in rollouts.groupby("run"):
         sources = [item for item in inputs if Path(item[0]).parent.name == run]
         if len(sources) != 1:
             raise ConfigError(f"{path}: rows of run {run!r} match {len(sources)} of its inputs")
-        found.append((sources[0], std, error, _deploy_rate(part)))
+        found.append((sources[0], std, error, settings, _deploy_rate(part)))
     return found
 
 

@@ -17,6 +17,7 @@ from pih.planning.config import method_label, recorded_planner, upgraded
 from pih.planning.run_record import Phase, phase_rows
 from pih.records.outputs import read_provenance
 from pih.scene.config import SceneConfig
+from pih.scene.overrides import scene_with
 from pih.study.points import GOAL_KEY, is_method_key, upgraded_point
 
 
@@ -155,6 +156,7 @@ def run_tables(
                 **run_tags,
                 "start_std_m": planner.deploy_start_std_m,
                 "model_error": NO_MODEL_ERROR,
+                "on_simulator": on_simulator(record["config"]),
                 **run_summary(
                     rollouts,
                     planner.success_tolerance_m,
@@ -176,6 +178,24 @@ def model_error_name(record: Mapping[str, Any]) -> str:
     return (record.get("model_error") or {}).get("name", NO_MODEL_ERROR)
 
 
+def model_error_settings(record: Mapping[str, Any]) -> dict[str, Any]:
+    """The dotted scene settings of the model error a redeployment file's provenance
+    ``record`` names (none: empty)."""
+    return dict((record.get("model_error") or {}).get("settings") or {})
+
+
+def on_simulator(config: Mapping[str, Any], model_error: Mapping[str, Any] | None = None) -> bool:
+    """Whether deployment trials on a run's real scene (its recorded ``config``'s), changed by
+    a ``model_error``'s dotted scene settings, ran on the run's own training simulator, the hole
+    aside: then they are what the simulator itself predicted (docs/contact_model.md)."""
+    scene = recorded_config(SceneConfig, config, "scene")
+    changes = recorded_planner(config).simulator.scene_changes
+    training = scene.replace(**changes) if changes else scene
+    if model_error:
+        scene = scene_with(to_mapping(scene), model_error, "robustness.model_error")
+    return scene == training
+
+
 def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -> pd.DataFrame:
     """One row per redeployment of a run (``pih redeploy``, the ``redeploy`` and
     ``redeploy_model_error`` rules): its method, run and sweep levels as :func:`run_tables` tags
@@ -187,6 +207,8 @@ def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -
         planner = record["config"]["planner"]
         deploy = phase_rows(pd.read_parquet(path, columns=["phase", "success"]), Phase.DEPLOY)
         point = upgraded_point(record["sweep_point"])
+        # The record holds the scene deployed on; the run's own holds the one it trained beside.
+        run_config = read_provenance(path.with_name("rollouts.parquet"))["config"]
         rows.append(
             {
                 "method": variant(planner),
@@ -194,6 +216,7 @@ def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -
                 **{key: str(point[key]) for key in split_keys(sweep_keys)},
                 "start_std_m": planner["deploy_start_std_m"],
                 "model_error": model_error_name(record),
+                "on_simulator": on_simulator(run_config, model_error_settings(record)),
                 "deploy_success_rate": float(deploy["success"].mean()),
             }
         )

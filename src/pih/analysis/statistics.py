@@ -1,9 +1,11 @@
 """Intervals and tests over independent runs: Wilson's interval for a success rate, the mean
-of per-run rates with it, and the exact two-sided sign test for paired comparisons."""
+of per-run rates with it, and the exact two-sided sign test for paired comparisons with their
+counts."""
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import pandas as pd
 
@@ -39,3 +41,17 @@ def sign_test_p(better: int, worse: int) -> float:
     untied = better + worse
     tail = sum(math.comb(untied, k) for k in range(min(better, worse) + 1)) / 2**untied
     return min(1.0, 2 * tail)
+
+
+def pair_counts(difference: pd.Series) -> dict[str, Any]:
+    """A paired comparison's columns from the per-pair differences in deployment success: how
+    many pairs, better, worse and tied, the mean difference and :func:`sign_test_p`."""
+    better, worse = int((difference > 0).sum()), int((difference < 0).sum())
+    return {
+        "pairs": len(difference),
+        "better": better,
+        "worse": worse,
+        "tied": len(difference) - better - worse,
+        "mean_difference": float(difference.mean()),
+        "sign_test_p": sign_test_p(better, worse),
+    }

@@ -12,10 +12,10 @@ def aggregate(paths: list[Path], output_dir: Path, reference_variant: str | None
     """Pool the runs and redeployments under ``paths`` into the planning tables in ``output_dir``."""
     import pandas as pd
 
-    from pih.analysis.planning_summary import write_pooled_summary
     from pih.analysis.pooling import find_outputs, pool
     from pih.config import ConfigError
     from pih.publishing.equivalence import current_hashes
+    from pih.reporting.planning_summary import write_pooled_summary
 
     if output_dir.exists() and not output_dir.is_dir():
         print(f"pih aggregate: --output-dir {output_dir}: not a directory", file=sys.stderr)

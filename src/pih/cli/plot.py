@@ -12,8 +12,8 @@ def plot(run: Path, output: Path | None) -> int:
     """Draw one planning run's cost curve and best paths into ``output`` (default RUN/run.png)."""
     import pandas as pd
 
-    from pih.analysis import plots
     from pih.planning.run_record import RecordedRun
+    from pih.reporting import plots
 
     if missing_parent("plot", "--output", output):
         return 1

@@ -18,11 +18,11 @@ README_BEGIN, README_END = PUBLISHED_STUDIES["default"].markers
 
 def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["default"]) -> str:
     """README's results for ``study``, generated from its published summary tables: the
-    headline per method (and per compared level, :func:`pih.analysis.summary.planning_rows`) and its
+    headline per method (and per compared level, :func:`pih.reporting.summary.planning_rows`) and its
     paired comparisons from offset starts (those from the training start are in
     ``summary.md``); with replays at a finer step, both at the runs' step and at that one."""
-    from pih.analysis.summary import perturbed_pairs, planning_rows, step_pairs
     from pih.records.outputs import markdown_table
+    from pih.reporting.summary import perturbed_pairs, planning_rows, step_pairs
 
     tables = published / "planning" / "summary"
     if study.in_parts and not tables.is_dir():
@@ -48,9 +48,11 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
             f" pooled with the {pooled.title}'s {len(runs)} runs (`{pooled.directory}/`, made "
             f"{_dates(runs)})"
         )
+    begin, end = study.markers
+    if (tables / "training_model.parquet").is_file():
+        return _training_model_block(tables, source, (begin, end))
     source += "; deployment success, 95 % interval over runs:"
     source = textwrap.fill(source, 100)
-    begin, end = study.markers
     return "\n\n".join(
         [
             begin,
@@ -59,6 +61,28 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
             f"{caption} (sign test over the untied pairs):",
             markdown_table(pairs, "{:.3g}").strip(),
             end,
+        ]
+    )
+
+
+def _training_model_block(tables: Path, source: str, markers: tuple[str, str]) -> str:
+    """A study of the planner's own simulator: each training model's policies on the real
+    scene, beside what their simulator predicted and against their real-scene-trained twins."""
+    from pih.records.outputs import markdown_table
+    from pih.reporting.summary import training_model_rows
+
+    table = pd.read_parquet(tables / "training_model.parquet")
+    std = table["start_std_m"].iloc[0] if len(table) else 0.0
+    source += (
+        f"; deployment success from starts {1e3 * std:g} mm off, 95 % interval over runs, and "
+        "sign test over the untied pairs:"
+    )
+    return "\n\n".join(
+        [
+            markers[0],
+            textwrap.fill(source, 100),
+            markdown_table(training_model_rows(table), "{:.3g}").strip(),
+            markers[1],
         ]
     )
 

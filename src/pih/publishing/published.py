@@ -118,6 +118,7 @@ PUBLISHED_STUDIES = {
             RUN_GLOBS,
             page="docs/contact_model.md",
             in_parts=True,
+            pools=("sim_to_real",),
         ),
         # Planning runs only; the default's 12 runs are its runs on the real hole at -40 and -30
         # mm, draw for draw.
@@ -400,8 +401,8 @@ def publish_part(results: Path, study: PublishedStudy, root: Path = Path(".")) -
 def remake_tables(planning: Path, also: Iterable[Path] = ()) -> None:
     """A study's planning tables (``planning/summary``), made from its runs, redeployments and
     replays, and those under ``also``, as ``pih aggregate`` makes them."""
-    from pih.analysis.planning_summary import write_pooled_summary
     from pih.analysis.pooling import find_outputs, pool
+    from pih.reporting.planning_summary import write_pooled_summary
 
     pooled = pool(*find_outputs([planning, *also]), current_codes=current_hashes())
     write_pooled_summary(pooled, planning / "summary")

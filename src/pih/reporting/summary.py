@@ -22,6 +22,7 @@ from pih.analysis.aggregate import (
     on_training_scene,
 )
 from pih.analysis.run_summary import NO_MODEL_ERROR
+from pih.analysis.training_model import REAL_SCENE
 from pih.records.outputs import markdown_table
 from pih.validation.experiment import PAPER_PEARSON_R, PAPER_RELATIVE_ERROR_PCT
 
@@ -292,6 +293,39 @@ def perturbed_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFr
         return per_level.assign(level=levels).reset_index(drop=True)
     rows = paired[(paired["dimension"] == "start_std_m") & (paired["level"] == str(std))]
     return rows.drop(columns=["dimension", "level"]).reset_index(drop=True)
+
+
+def training_model_rows(table: pd.DataFrame) -> pd.DataFrame:
+    """The planner's simulator against reality, a row per method and training model
+    (:func:`pih.analysis.training_model.training_model_table`): success on the real scene and as
+    the simulator predicted it, with intervals over runs, the runs it mispredicted, and the runs
+    against their twins trained on the real scene's model."""
+    rows = []
+    for row in table.itertuples():
+        paired = row.pairs > 0
+        rows.append(
+            {
+                "method": row.method,
+                "trained in": row.training_model,
+                "runs": row.runs,
+                "on the real scene": _interval(
+                    row.deploy_success_rate, row.deploy_ci_low, row.deploy_ci_high
+                ),
+                "predicted by its simulator": (
+                    "(the same trials)"
+                    if row.training_model == REAL_SCENE
+                    else _interval(
+                        row.predicted_success_rate, row.predicted_ci_low, row.predicted_ci_high
+                    )
+                ),
+                "runs mispredicted": row.runs_mispredicted,
+                "vs twin trained on the real scene's model: better / worse / tied": (
+                    f"{row.better} / {row.worse} / {row.tied}" if paired else "—"
+                ),
+                "p": row.sign_test_p if paired else "—",
+            }
+        )
+    return pd.DataFrame(rows)
 
 
 def paired_rows(paired: pd.DataFrame) -> pd.DataFrame:

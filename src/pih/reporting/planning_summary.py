@@ -9,7 +9,6 @@ from typing import Any
 
 import pandas as pd
 
-from pih.analysis import plots
 from pih.analysis.aggregate import (
     BAND_COLUMNS,
     PAIRED_COLUMNS,
@@ -24,8 +23,10 @@ from pih.analysis.aggregate import (
 from pih.analysis.pooling import SOURCE_COLUMNS, PooledRuns
 from pih.analysis.run_summary import BEST_COST_COLUMNS, level_columns
 from pih.analysis.time_step import time_step_columns, with_time_step
+from pih.analysis.training_model import TRAINING_MODEL_COLUMNS
 from pih.records.outputs import markdown_table, write_table, write_text
 from pih.records.provenance import record as provenance_record
+from pih.reporting import plots
 
 
 def write_planning_summary(
@@ -37,7 +38,7 @@ def write_planning_summary(
 ) -> None:
     """Every summary file of a study's planning runs under ``directory`` (``runs``,
     ``cost_bands``, ``success``, ``paired``, ``robustness``, ``ablation``, ``per_run`` and, with
-    replays, ``time_step``: ``.parquet`` and ``.md``; ``success.csv``; ``fig9_cost_bands.{png,pdf}``, ``fig_deploy_success.png``), each
+    replays, ``time_step``, and with a swept ``planner.simulator``, ``training_model``: ``.parquet`` and ``.md``; ``success.csv``; ``fig9_cost_bands.{png,pdf}``, ``fig_deploy_success.png``), each
     with the provenance ``record``."""
     directory = Path(directory)
     frames = {
@@ -51,6 +52,8 @@ def write_planning_summary(
     }
     if tables.time_step is not None:
         frames["time_step"] = (tables.time_step, time_step_columns(sweep_keys))
+    if tables.training_model is not None:
+        frames["training_model"] = (tables.training_model, TRAINING_MODEL_COLUMNS)
     for name, (frame, columns) in frames.items():
         write_table(frame, directory / f"{name}.parquet", record, columns)
     robustness = f"{markdown_table(tables.robustness)}\n\n{markdown_table(tables.robustness_pairs)}"
@@ -73,9 +76,12 @@ def write_planning_summary(
         markdown["time_step"] = "\n\n".join(
             markdown_table(t) for t in (tables.time_step, tables.time_step_pairs)
         )
-    else:  # no replays now: an earlier pooling's time-step table would misreport them
+    if tables.training_model is not None:
+        markdown["training_model"] = markdown_table(tables.training_model)
+    # An earlier pooling's table that this one has no data for would misreport it.
+    for name in {"time_step", "training_model"} - set(markdown):
         for suffix in (".parquet", ".md"):
-            (directory / f"time_step{suffix}").unlink(missing_ok=True)
+            (directory / f"{name}{suffix}").unlink(missing_ok=True)
     for name, text in markdown.items():
         write_text(directory / f"{name}.md", text, record)
     write_text(directory / "success.csv", tables.success.to_csv(index=False))
