@@ -789,6 +789,7 @@ BIG_SWEEP = yaml.safe_dump(
             "config error: variants.v1.planner.iteratons: no config key 'iteratons'",
         ),
         ("scene: {material: {friction: -0.1}}\n", "config error: scene.material.friction: -0.1"),
+        ("recordings: {series_rate_hz: 0}\n", "config error: recordings.series_rate_hz: 0"),
         (
             "sweep: {variant: [Fast/v1]}\nvariants: {Fast/v1: {}}\nfigure_point: {}\n",
             "config error: variants.Fast/v1: 'Fast/v1' is not allowed as a variant name",

@@ -1,5 +1,7 @@
 """Rerun recordings: what a researcher opening them sees (read back from the .rrd)."""
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -122,9 +124,10 @@ def test_planning_recording_animates_the_peg_along_each_best_path(tmp_path):
     path = tmp_path / "run.rrd"
     record_planning(path, rollouts, best_paths, SceneConfig(), "run", {"run_id": "run"})
     chunks = _chunks(path)
-    # The peg is animated on the playback timeline: every iteration in turn, at 50 Hz.
+    # The peg is animated on the playback timeline: every iteration in turn, at 50 Hz and at
+    # its last sample (where the rollout ended).
     playback = _column(chunks[f"/{SCENE}/peg"], "playback")
-    assert len(playback) == iterations * len(range(0, samples, 2))
+    assert len(playback) == iterations * (len(range(0, samples, 2)) + 1)
     assert np.all(np.diff([p.total_seconds() for p in playback]) > 0)
     # Sensed hole and goal per iteration, on both timelines; the true hole once.
     goal = chunks[f"/{SCENE}/goal"]
@@ -226,3 +229,64 @@ def test_planning_recording_opens_at_the_start_of_playback_with_a_legend(tmp_pat
     (positions,) = _column(legend, "Points2D:positions")
     heights = sorted(y for _, y in positions)
     assert min(heights) > 0 and np.min(np.diff(heights)) >= 0.005
+
+
+def test_insertion_series_are_decimated_keeping_every_peak_and_the_tail(tmp_path):
+    """A 20 s insertion at a 0.5 ms step is drawn from far fewer samples: each 10 ms bin's lowest
+    and highest (a one-sample spike survives), the last second at every step, the scene at its
+    frame rate."""
+    from pih.records.config import RecordingsConfig
+    from pih.records.recordings import DEPTH_ENTITY, envelope_indices
+
+    n = 40_000
+    trace = _insertion_trace(0.001)
+    t = np.arange(n) * 0.0005
+    force = np.zeros((n, 3))
+    force[:, 1] = np.sin(t)
+    force[12_345, 1] = 50.0  # a one-step spike
+    trace = dataclasses.replace(
+        trace,
+        time_s=t,
+        **{
+            name: np.resize(getattr(trace, name), (n, *getattr(trace, name).shape[1:]))
+            for name in ("q_robot", "q_peg", "q_peg_top", "q_peg_bottom", "spring_force")
+        },
+        contact_force=force,
+        contact_patches=np.ones(n, dtype=np.int64),
+        spring_energy_j=np.zeros(n),
+        insertion_depth_m=np.linspace(0, 0.01, n),
+        penetration_m=np.zeros(n),
+    )
+    kept = envelope_indices(t, force[:, 1], 100.0, 1.0)
+    assert 12_345 in kept and {0, n - 1} <= set(kept)
+    assert set(range(n - 2001, n)) <= set(kept)  # the last second, every step
+    assert len(kept) < 2 * 20 * 100 + 2001 + 2
+    path = tmp_path / "run.rrd"
+    rates = RecordingsConfig(frame_rate_hz=10.0)
+    record_insertion(path, trace, SceneConfig(), "run", {"run_id": "run"}, rates)
+    chunks = _chunks(path)
+    f_z = np.concatenate(_column(chunks["/forces/contact_f_z"], "Scalars:scalars")).ravel()
+    assert f_z.max() == 50.0 and len(f_z) == len(kept)
+    assert len(_column(chunks[f"/{DEPTH_ENTITY}"], "Scalars:scalars")) < n / 5
+    frames = _column(chunks[f"/{SCENE}/peg"], "sim_time")
+    # 10 Hz, then every step of the last second (t ≥ t_end − 1 s: 2001 steps)
+    assert len(frames) == len(set(range(0, n, 200)) | set(range(n - 2001, n)))
+
+
+@pytest.mark.parametrize(
+    ("section", "message"),
+    [
+        ({"series_rate_hz": 0.0}, r"recordings\.series_rate_hz: 0\.0"),
+        ({"frame_rate_hz": float("nan")}, r"recordings\.frame_rate_hz: nan"),
+        ({"full_rate_tail_s": -1.0}, r"recordings\.full_rate_tail_s: -1\.0"),
+        ({"frame_rate": 10.0}, r"recordings: unknown key\(s\) \['frame_rate'\]"),
+    ],
+)
+def test_a_bad_recording_rate_is_named_before_any_job(section, message):
+    from pih.config import ConfigError
+    from pih.study.config import check_study, load_config, study_points
+
+    config = load_config(["config/config.yaml"])
+    config["recordings"] = {**config["recordings"], **section}
+    with pytest.raises(ConfigError, match=f"^{message}"):
+        check_study(config, study_points(config))

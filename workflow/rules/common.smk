@@ -1,3 +1,5 @@
+import dataclasses
+
 from snakemake.utils import validate
 
 from pih.records.provenance import script_library_hash
@@ -6,6 +8,7 @@ from pih.study.config import (
     figure_point,
     planning_space,
     read_config_files,
+    recordings_section,
     resolved_sections,
     robustness_section,
     stop_on_config_error,
@@ -55,6 +58,9 @@ def library_of(script):
         os.path.join(workflow.basedir, "workflow", "scripts", script)
     )
 
+
+# The Rerun recordings' rates (a job's params: a changed rate re-makes the recordings' jobs).
+RECORDINGS = dataclasses.asdict(recordings_section(config))
 
 # Each planning run is redeployed once per std (file names carry the std as Python prints it).
 ROBUSTNESS_STDS = [str(float(std)) for std in config["robustness"]["start_std_m"]]

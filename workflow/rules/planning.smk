@@ -17,6 +17,7 @@ rule plan:
         scene=resolved_section("scene"),
         planner=resolved_section("planner"),
         point=sweep_point,
+        frame_rate_hz=RECORDINGS["frame_rate_hz"],
         library=library_of("plan.py"),
     script:
         "../scripts/plan.py"

@@ -33,6 +33,7 @@ rule validation_run:
     params:
         scene=lambda wildcards: VALIDATION_SCENES[wildcards.variant],
         experiment=config["validation"]["experiment"],
+        recordings=RECORDINGS,
         library=library_of("validation_run.py"),
     script:
         "../scripts/validation_run.py"

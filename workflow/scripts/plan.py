@@ -57,7 +57,8 @@ with logged(snakemake.log[0]):
         record.best_paths,
         scene,
         provenance["run_id"],
-        provenance,
+        {**provenance, "recordings": {"frame_rate_hz": snakemake.params.frame_rate_hz}},
+        frame_rate_hz=snakemake.params.frame_rate_hz,
     )
     print(
         f"deployment success {record.deploy_success_rate:.0%} ({planner_config.deploy_policy}; "

@@ -1,6 +1,7 @@
 """Quasi-static straight-down insertion in Drake at one offset, in one validation variant (paper §2.4)."""
 
 from pih.config import from_mapping
+from pih.records.config import RecordingsConfig
 from pih.records.outputs import write_trace
 from pih.records.recordings import record_insertion
 from pih.scene.config import SceneConfig
@@ -28,7 +29,14 @@ with logged(snakemake.log[0]):
         simulator=scene.simulator_settings(),
     )
     write_trace(trace, snakemake.output.trace, record)
-    record_insertion(snakemake.output.recording, trace, scene, record["run_id"], record)
+    record_insertion(
+        snakemake.output.recording,
+        trace,
+        scene,
+        record["run_id"],
+        {**record, "recordings": snakemake.params.recordings},
+        from_mapping(RecordingsConfig, snakemake.params.recordings, "recordings"),
+    )
     print(
         f"{trace.status} {trace.reason}; {len(trace)} steps, deepest {trace.insertion_depth_m.max():.5f} m"
     )

@@ -18,6 +18,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
+from pih.records.config import RecordingsConfig
 from pih.records.outputs import write_with
 from pih.records.provenance import canonical_json
 from pih.scene.config import SceneConfig, hole_outline
@@ -26,7 +27,6 @@ from pih.scene.trace import Trace
 from pih.whitney.frame import error_side
 
 APPLICATION_ID = "pih"
-SPATIAL_PERIOD_S = 0.02  # spatial entities are logged at 50 Hz; scalar series at every step
 ROBOT_AXIS_M = 0.005  # the robot frame is drawn as its y axis (the peg's axis at rest), 5 mm long
 FORCE_ARROW_M_PER_N = 1e-3  # force arrows: 1 mm per newton
 # Entities whose own labels would stack on others (the spring's on the robot frame's, the best
@@ -81,6 +81,39 @@ def _open(
     rec.save(path, default_blueprint=blueprint)
     rec.send_property("provenance", rr.AnyValues(record=canonical_json(dict(provenance))))
     return rec
+
+
+def _samples_per_bin(time_s: NDArray[np.float64], rate_hz: float) -> int:
+    """How many steps make 1/``rate_hz`` s of a trace (at least one)."""
+    step = float(np.median(np.diff(time_s))) if len(time_s) > 1 else 0.0
+    return max(1, round(1.0 / (rate_hz * step))) if step > 0 else 1
+
+
+def frame_indices(
+    time_s: NDArray[np.float64], rate_hz: float, tail_s: float = 0.0
+) -> NDArray[np.intp]:
+    """The samples drawn as scene frames: about ``rate_hz`` a second, every one in the last
+    ``tail_s`` seconds, and always the first and the last."""
+    n = len(time_s)
+    if n == 0:
+        return np.arange(0)
+    tail = np.flatnonzero(time_s >= time_s[-1] - tail_s) if tail_s > 0 else []
+    every = _samples_per_bin(time_s, rate_hz)
+    return np.unique(np.concatenate([np.arange(0, n, every), tail, [n - 1]])).astype(np.intp)
+
+
+def envelope_indices(
+    time_s: NDArray[np.float64], values: NDArray[np.float64], rate_hz: float, tail_s: float
+) -> NDArray[np.intp]:
+    """The samples of a series drawn: in each bin of 1/``rate_hz`` s its lowest and highest (a
+    peak of one sample survives, and the plot's envelope is the full series'), every one in the
+    last ``tail_s`` seconds, and the first and the last."""
+    every = _samples_per_bin(time_s, rate_hz)
+    whole = (len(values) // every) * every
+    bins = np.asarray(values[:whole], dtype=float).reshape(-1, every)
+    starts = np.arange(0, whole, every)
+    extremes = [starts + np.argmin(bins, axis=1), starts + np.argmax(bins, axis=1)]
+    return np.unique(np.concatenate([*extremes, frame_indices(time_s, rate_hz, tail_s)]))
 
 
 def _log_scene(
@@ -171,11 +204,20 @@ def _series_styles(rec: rr.RecordingStream, entity: str, names: list[str]) -> No
 
 
 def record_insertion(
-    path: str | Path, trace: Trace, scene: SceneConfig, run_id: str, provenance: Mapping[str, Any]
+    path: str | Path,
+    trace: Trace,
+    scene: SceneConfig,
+    run_id: str,
+    provenance: Mapping[str, Any],
+    rates: RecordingsConfig | None = None,
 ) -> None:
     """Validation insertion: peg, hole, robot frame, spring and contact-force arrow (y up); the
     contact and spring forces in Whitney's convention (F_x toward the error side, F_z the
-    push-back) and the insertion depth ℓ (mm) against simulated time. Opens paused at its start."""
+    push-back) and the insertion depth ℓ (mm) against simulated time, each series drawn from its
+    :func:`envelope_indices`, the scene at :func:`frame_indices` (at ``rates``: a 350 s descent
+    at every 0.5 ms step would be 80 MB of series nobody can see; default: the config's
+    defaults). Opens paused at its start."""
+    rates = rates or RecordingsConfig()
     depth_mm = 1e3 * np.asarray(trace.insertion_depth_m, dtype=float)
     blueprint = rrb.Blueprint(
         rrb.Horizontal(
@@ -205,22 +247,22 @@ def record_insertion(
         with _open(run_id, target, blueprint, provenance) as rec:
             _log_scene(rec, scene, {"spring R–P1": "spring"})
             _series_styles(rec, "forces", list(series))
-            times = rr.TimeColumn("sim_time", duration=trace.time_s)
-            for name, values in series.items():
-                rec.send_columns(
-                    f"forces/{name}", indexes=[times], columns=rr.Scalars.columns(scalars=values)
-                )
             rec.log(
                 DEPTH_ENTITY,
                 rr.SeriesLines(colors=[(40, 120, 230)], names=["insertion depth ℓ (mm)"]),
                 static=True,
             )
-            rec.send_columns(
-                DEPTH_ENTITY, indexes=[times], columns=rr.Scalars.columns(scalars=depth_mm)
-            )
-            step = float(np.median(np.diff(trace.time_s))) if len(trace) > 1 else SPATIAL_PERIOD_S
-            every = max(1, round(SPATIAL_PERIOD_S / step))
-            for k in range(0, len(trace), every):
+            entities = {f"forces/{name}": values for name, values in series.items()}
+            for entity, values in {**entities, DEPTH_ENTITY: depth_mm}.items():
+                kept = envelope_indices(
+                    trace.time_s, values, rates.series_rate_hz, rates.full_rate_tail_s
+                )
+                rec.send_columns(
+                    entity,
+                    indexes=[rr.TimeColumn("sim_time", duration=trace.time_s[kept])],
+                    columns=rr.Scalars.columns(scalars=values[kept]),
+                )
+            for k in frame_indices(trace.time_s, rates.frame_rate_hz, rates.full_rate_tail_s):
                 rec.set_time("sim_time", duration=float(trace.time_s[k]))
                 _log_peg(rec, scene, trace.q_peg[k], trace.q_robot[k], trace.q_peg_top[k])
                 rec.log(
@@ -243,11 +285,13 @@ def record_planning(
     scene: SceneConfig,
     run_id: str,
     provenance: Mapping[str, Any],
+    frame_rate_hz: float = RecordingsConfig.frame_rate_hz,
 ) -> None:
-    """Planning run. Timeline ``iteration``: each iteration's best peg-tip and robot paths, the
-    sensed hole and the goal (peg-tip target), and the best J_inn. Timeline ``playback``: the peg animated
-    along every iteration's best rollout in turn (iteration i starts at (i − 1) × rollout time);
-    the recording opens paused at its start. A legend names what ends at the hole bottom."""
+    """Planning run. Timeline ``iteration``: each iteration's best peg-tip and robot paths (at
+    :func:`frame_indices`), the sensed hole and the goal (peg-tip target), and the best J_inn.
+    Timeline ``playback``: the peg animated along every iteration's best rollout in turn
+    (iteration i starts at (i − 1) × rollout time); the recording opens paused at its start. A
+    legend names what ends at the hole bottom."""
     blueprint = rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial2DView(name="paths (y up)", origin="world"),
@@ -259,7 +303,6 @@ def record_planning(
     best = rollouts[rollouts["is_best"]].set_index("iteration")
     rollout_s = float(best_paths["time_s"].max()) if len(best_paths) else 0.0
     step = float(np.median(np.diff(best_paths["time_s"].unique()))) if len(best_paths) > 2 else 1.0
-    every = max(1, round(SPATIAL_PERIOD_S / step))
     length = scene.peg.length_m
 
     def write(target: Path) -> None:
@@ -275,7 +318,9 @@ def record_planning(
                 ),
                 static=True,
             )
-            for iteration, path_rows in best_paths.groupby("iteration"):
+            for iteration, rows in best_paths.groupby("iteration"):
+                times = rows["time_s"].to_numpy()
+                path_rows = rows.iloc[frame_indices(times, frame_rate_hz)]
                 row = best.loc[iteration]
                 start_s = (int(iteration) - 1) * (rollout_s + step)
                 for timeline in ("iteration", "playback"):
@@ -293,7 +338,7 @@ def record_planning(
                 q_peg = offset_along_axis(q_bottom, length / 2)
                 q_top = offset_along_axis(q_bottom, length)
                 times = path_rows["time_s"].to_numpy()
-                for k in range(0, len(times), every):
+                for k in range(len(times)):
                     rec.set_time("playback", duration=start_s + float(times[k]))
                     _log_peg(rec, scene, q_peg[k], q_robot[k], q_top[k])
                 if np.isfinite(row["cost"]):

@@ -4,7 +4,7 @@
 ``validation`` (:class:`ValidationSection`), ``planner``
 (:class:`pih.planning.config.PlannerConfig`), a ``sweep`` whose keys are dotted config paths
 (``planner.start_x_m``) with lists of levels, optional ``variants``, ``figure_point`` and
-``robustness`` (:class:`RobustnessSection`). A sweep point overrides those paths; :func:`resolve`
+``robustness`` (:class:`RobustnessSection`) and ``recordings`` (:class:`pih.records.config.RecordingsConfig`). A sweep point overrides those paths; :func:`resolve`
 applies it and validates the result strictly, and :func:`check_study` does so for every point
 before any job runs. :func:`pih.study.schema.config_schema` is what ``workflow/schemas/config.schema.json`` holds
 (``python -m pih schema`` regenerates it; a test checks they agree). docs/workflow.md explains
@@ -36,6 +36,7 @@ from pih.config import (
     to_mapping,
 )
 from pih.planning.config import PlannerConfig, is_one_level, replace
+from pih.records.config import RecordingsConfig
 from pih.records.provenance import canonical_json
 from pih.scene.config import SceneConfig
 from pih.scene.overrides import scene_with
@@ -249,6 +250,16 @@ class RobustnessSection:
         return min((s for s in self.start_std_m if s > 0), default=0.0)
 
 
+def recordings_section(config: Mapping[str, Any]) -> RecordingsConfig:
+    """The config's ``recordings`` section, validated (absent: the defaults)."""
+    section = config.get("recordings")
+    return (
+        RecordingsConfig()
+        if section is None
+        else from_mapping(RecordingsConfig, section, "recordings")
+    )
+
+
 def robustness_section(config: Mapping[str, Any]) -> RobustnessSection:
     """The config's ``robustness`` section, validated."""
     return from_mapping(RobustnessSection, config["robustness"], "robustness")
@@ -416,6 +427,7 @@ def check_study(config: Mapping[str, Any], points: list[Mapping[str, Any]]) -> N
                 raise ConfigError(f"robustness.start_std_m: {error}") from None
         for name, settings in robustness.model_error.items():
             scene_with(data["scene"], settings, f"robustness.model_error.{name}")
+    recordings_section(config)
 
 
 def _at_point(config: Mapping[str, Any], point: Mapping[str, Any], error: ConfigError) -> str:

@@ -9,8 +9,14 @@ from typing import Any
 
 from pih.config import ConfigError, json_schema, markdown_tables, markdown_type
 from pih.planning.config import PlannerConfig
+from pih.records.config import RecordingsConfig
 from pih.scene.config import SceneConfig
-from pih.study.config import MAX_SWEEP_POINTS, OWN_SECTIONS, RobustnessSection, ValidationSection
+from pih.study.config import (
+    MAX_SWEEP_POINTS,
+    OWN_SECTIONS,
+    RobustnessSection,
+    ValidationSection,
+)
 
 
 def config_schema() -> dict[str, Any]:
@@ -46,6 +52,7 @@ def config_schema() -> dict[str, Any]:
                 },
             },
             "robustness": json_schema(RobustnessSection),
+            "recordings": json_schema(RecordingsConfig),
             "figure_point": {
                 "type": "object",
                 "description": "levels of the sweep point whose best paths Fig. 8 shows (per method)",
@@ -67,6 +74,7 @@ SECTIONS: dict[str, type] = {
     "validation": ValidationSection,
     "planner": PlannerConfig,
     "robustness": RobustnessSection,
+    "recordings": RecordingsConfig,
 }
 """The config file's sections that are config dataclasses, in docs/configuration.md's order."""
 
