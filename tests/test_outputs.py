@@ -62,6 +62,9 @@ def test_trace_round_trip_with_provenance(tmp_path, trace, scene, capsys):
     assert set(units) == set(TRACE_COLUMNS)
     # pandas' own schema metadata survives next to ours.
     assert b"pandas" in pq.read_schema(path).metadata
+    # Stored losslessly smaller than Parquet's default: zstd, floats byte-stream split.
+    column = pq.ParquetFile(path).metadata.row_group(0).column(1)
+    assert column.compression == "ZSTD" and "BYTE_STREAM_SPLIT" in column.encodings
     assert main(["provenance", str(path), "--key", "seeds"]) == 0
     assert '"noise": 7' in capsys.readouterr().out
 

@@ -243,8 +243,17 @@ def write_table(
     for key, value in (extra_metadata or {}).items():
         metadata[f"pih.{key}".encode()] = canonical_json(value).encode()
     table = pa.Table.from_arrays(table.columns, schema=pa.schema(fields, metadata=metadata))
+    # Lossless, and a third smaller than Parquet's default on per-step traces: zstd, and the
+    # floats' bytes split into streams (their exponents compress; docs/workflow.md, "Outputs").
+    floats = [f.name for f in table.schema if pa.types.is_floating(f.type)]
     with atomic_path(path) as tmp:
-        pq.write_table(table, tmp)
+        pq.write_table(
+            table,
+            tmp,
+            compression="zstd",
+            use_byte_stream_split=floats,
+            use_dictionary=[name for name in table.column_names if name not in floats],
+        )
 
 
 def read_provenance(path: str | Path) -> dict[str, Any]:
