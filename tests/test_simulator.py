@@ -201,6 +201,9 @@ def test_point_trained_runs_are_compared_with_their_prediction_and_their_twins()
             ("one_level", "point", "10000000.0", "1", "true_hole", "point_1e7", True, 0.2),
         ]
     )
+    # A run's wall time rides on its own deployment's row (NaN on its redeployments').
+    seconds = frame["planner.simulator.contact_model"].map({"None": 600.0, "point": 150.0})
+    frame["run_seconds"] = seconds.where(frame["model_error"] == "none")
     table = training_model_table(frame, keys, 0.001).set_index("training_model")
     assert list(table.index) == [REAL_SCENE, "point, 1e+07 N/m"]
     real, point = table.loc[REAL_SCENE], table.loc["point, 1e+07 N/m"]
@@ -210,4 +213,5 @@ def test_point_trained_runs_are_compared_with_their_prediction_and_their_twins()
     assert point["predicted_success_rate"] == pytest.approx(0.55)
     assert point["runs_mispredicted"] == 1 and point["mean_gap"] == pytest.approx(-0.3)
     assert (point["pairs"], point["better"], point["worse"], point["tied"]) == (2, 0, 1, 1)
+    assert (real["median_run_s"], point["median_run_s"]) == (600.0, 150.0)
     assert training_model_table(frame, ["planner.seed"], 0.001).empty

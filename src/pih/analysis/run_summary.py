@@ -15,7 +15,7 @@ import pandas as pd
 from pih.config import plain, recorded_config, to_mapping
 from pih.planning.config import method_label, recorded_planner, upgraded
 from pih.planning.run_record import Phase, phase_rows
-from pih.records.outputs import read_provenance
+from pih.records.outputs import read_metadata, read_provenance
 from pih.scene.config import SceneConfig
 from pih.scene.overrides import scene_with
 from pih.study.points import GOAL_KEY, is_method_key, upgraded_point
@@ -157,6 +157,7 @@ def run_tables(
                 "start_std_m": planner.deploy_start_std_m,
                 "model_error": NO_MODEL_ERROR,
                 "on_simulator": on_simulator(record["config"]),
+                "run_seconds": run_seconds(path),
                 **run_summary(
                     rollouts,
                     planner.success_tolerance_m,
@@ -167,6 +168,15 @@ def run_tables(
             }
         )
     return pd.concat(bests, ignore_index=True), pd.DataFrame(summaries)
+
+
+def run_seconds(path: Path) -> float:
+    """A planning run's wall time (its plan job's, as ``rollouts.parquet`` records it; NaN for
+    records without it)."""
+    try:
+        return float(read_metadata(path, "timing")["seconds"])
+    except KeyError:
+        return math.nan
 
 
 NO_MODEL_ERROR = "none"

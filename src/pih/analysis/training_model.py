@@ -44,6 +44,10 @@ TRAINING_MODEL_COLUMNS: dict[str, tuple[str, str]] = {
     "predicted_ci_low": ("1", "95 % Wilson interval over runs, low"),
     "predicted_ci_high": ("1", "95 % Wilson interval over runs, high"),
     "runs_mispredicted": ("1", "runs whose real-scene success differs from the prediction"),
+    "median_run_s": (
+        "s",
+        "median over runs of a planning run's wall time as recorded (machines and load differ)",
+    ),
     "mean_gap": ("1", "mean over runs of real-scene success minus the predicted (sim-to-real)"),
     "pairs": (
         "1",
@@ -91,13 +95,15 @@ def training_model_table(
     frame = deployments
     if SIMULATED_HOLE_KEY in frame:
         frame = frame[frame[SIMULATED_HOLE_KEY] == "true_hole"]
-    frame = frame[frame["start_std_m"] == start_std_m]
     frame = frame.assign(training_model=frame.apply(training_model, axis=1, args=(keys,)))
     twins = [key for key in split_keys(sweep_keys) if key not in keys]
     index = ["method", "training_model", *twins]
+    seconds = frame.groupby(index)["run_seconds"].max() if "run_seconds" in frame else None
+    frame = frame[frame["start_std_m"] == start_std_m]
     real = frame[frame["model_error"] == NO_MODEL_ERROR].set_index(index)["deploy_success_rate"]
     predicted = frame[frame["on_simulator"]].set_index(index)["deploy_success_rate"]
     runs = pd.DataFrame({"real": real, "predicted": predicted.reindex(real.index)})
+    runs["seconds"] = math.nan if seconds is None else seconds.reindex(runs.index)
     trained_real = runs.index.get_level_values("training_model") == REAL_SCENE
     reference = runs[trained_real]["real"].droplevel("training_model")
     rows = []
@@ -126,6 +132,7 @@ def training_model_table(
                 "predicted_ci_low": predicted_low,
                 "predicted_ci_high": predicted_high,
                 "runs_mispredicted": int((gap != 0).sum()),
+                "median_run_s": float(part["seconds"].median()),
                 "mean_gap": float(gap.mean()) if len(gap) else math.nan,
                 **pairs,
             }

@@ -323,6 +323,7 @@ def training_model_rows(table: pd.DataFrame) -> pd.DataFrame:
                     f"{row.better} / {row.worse} / {row.tied}" if paired else "—"
                 ),
                 "p": row.sign_test_p if paired else "—",
+                "median run (s)": row.median_run_s,
             }
         )
     return pd.DataFrame(rows)
