@@ -1,9 +1,11 @@
 """The published studies: stale-result detection, publishing, README's numbers from them."""
 
 import importlib.metadata
+import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -1018,3 +1020,95 @@ def test_a_study_that_pools_another_makes_its_tables_from_both(tmp_path, monkeyp
     )
     assert (paired.query("dimension == 'start_std_m'")["pairs"] == 1).all()  # paired by seed key
     assert not (tmp_path / base.directory / "planning" / "summary").exists()
+
+
+CONTACT_MODEL = PUBLISHED_STUDIES["contact_model"]
+
+
+def test_contact_model_prose_quotes_its_table():
+    """README's and docs/contact_model.md's account of point-contact planning (issue 70) quote the
+    contact-model study's tables: trials inserted per method and training model, the pairs with
+    the hydroelastic twins, bilevel against one-level in point contact, the prediction, and the
+    wall times recorded in the runs."""
+    import pyarrow.parquet as pq
+
+    summary = ROOT / CONTACT_MODEL.directory / "planning" / "summary"
+    table = pd.read_parquet(summary / "training_model.parquet")
+    table["inserted"] = (table["deploy_success_rate"] * table["runs"] * 10).round().astype(int)
+    table["predicted"] = (table["predicted_success_rate"] * table["runs"] * 10).round()
+    rows = table.set_index(["method", "training_model"])
+    ours, theirs, one = "bilevel/deepest_explored", "bilevel/explored_argmin", "one_level"
+    real, stiff, soft = "the real scene's", "point, 1e+07 N/m", "point, 1e+06 N/m"
+
+    def inserted(method: str, model: str) -> str:
+        return f"{rows.loc[(method, model), 'inserted']} of 80"
+
+    page = " ".join((ROOT / CONTACT_MODEL.page).read_text().split())
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    assert (rows["runs"] == 8).all()
+    assert (
+        f"Our rule inserted in {inserted(ours, stiff)} trials trained at 1e7 N/m and "
+        f"{inserted(ours, soft)} at 1e6 N/m, as its twins trained hydroelastically "
+        f"({inserted(ours, real)})" in page
+    )
+    assert (
+        f"The paper's rule: {inserted(theirs, stiff)} at 1e7 N/m and {inserted(theirs, soft)} "
+        f"at 1e6 N/m, against {inserted(theirs, real)}" in page
+    )
+    point = table[table["training_model"] != real]
+    bilevel = point[point["method"] != one]
+    assert f"{bilevel['worse'].sum()} worse in {bilevel['pairs'].sum()} pairs" in page
+    for model, name in ((stiff, "1e7"), (soft, "1e6")):
+        r = rows.loc[(one, model)]
+        assert (
+            f"{int(r['better'])} better / {int(r['worse'])} worse (p = {r['sign_test_p']:.3g})"
+            in page
+        )
+        assert f"{inserted(one, model)} ({name} N/m)" in page
+    assert f"against {rows.loc[(one, real), 'inserted']} of 80 hydroelastic-trained" in page
+    same = int(point["runs"].sum() - point["runs_mispredicted"].sum())
+    assert f"in {same} of the {point['runs'].sum()} runs" in page
+    assert (
+        f"the point scenes predicted {point['predicted'].sum():.0f} insertions where the "
+        f"hydroelastic scene gave {point['inserted'].sum()}" in page
+    )
+    assert (
+        f"Point contact predicted {point['predicted'].sum():.0f} insertions where the "
+        f"hydroelastic scene gave {point['inserted'].sum()}" in readme
+    )
+    assert (
+        f"ours inserted in {rows.loc[(ours, stiff), 'inserted']} of 80 trials at each stiffness, "
+        f"the paper's rule in {rows.loc[(theirs, stiff), 'inserted']} and "
+        f"{rows.loc[(theirs, soft), 'inserted']} (trained hydroelastically: "
+        f"{rows.loc[(ours, real), 'inserted']} and {rows.loc[(theirs, real), 'inserted']}), no run "
+        "worse than its twin" in readme
+    )
+    assert rows.loc[(ours, stiff), "inserted"] == rows.loc[(ours, soft), "inserted"]
+    assert bilevel["worse"].sum() == 0
+    # Bilevel against one-level, trained in point contact (the paired table's per-level rows).
+    paired = pd.read_parquet(summary / "paired.parquet")
+    level = "planner.simulator.point_stiffness_n_per_m"
+    against = paired[(paired["dimension"] == level) & (paired["versus"] == one)].set_index(
+        ["method", "level"]
+    )
+    for stiffness in ("10000000.0", "1000000.0"):
+        pair = against.loc[(ours, f"{stiffness}, starts 0.001 m off")]
+        assert int(pair["better"]) == int(pair["pairs"]) == 8
+    assert f"ours beat one-level at 8 of 8 points (p = {pair['sign_test_p']:.3g})" in readme
+    # Wall times: point-trained runs against their twins made on the same kind of CPU.
+    seconds: dict[str, list[float]] = {"point": [], "real": []}
+    for study in (CONTACT_MODEL, SIM_TO_REAL):
+        for path in (ROOT / study.directory / "planning").glob("*/rollouts.parquet"):
+            metadata = pq.read_schema(path).metadata
+            record = json.loads(metadata[b"pih.provenance"])
+            if "Intel" not in record["machine"]["cpu"] or "sensed_per_run" in str(path):
+                continue
+            kind = "point" if study is CONTACT_MODEL else "real"
+            seconds[kind].append(json.loads(metadata[b"pih.timing"])["seconds"])
+    point_s, real_s = (float(np.median(seconds[k])) for k in ("point", "real"))
+    assert (
+        f"median of {point_s:.0f} s ({len(seconds['point'])} runs), its hydroelastic twins made on "
+        f"the same kind of CPU (Intel Xeon, two runs at a time) {real_s:.0f} s "
+        f"({len(seconds['real'])} runs): {real_s / point_s:.2g}×" in page
+    )
+    assert f"at {real_s / point_s:.2g}× less wall time a run" in readme
