@@ -1095,6 +1095,24 @@ def test_contact_model_prose_quotes_its_table():
         pair = against.loc[(ours, f"{stiffness}, starts 0.001 m off")]
         assert int(pair["better"]) == int(pair["pairs"]) == 8
     assert f"ours beat one-level at 8 of 8 points (p = {pair['sign_test_p']:.3g})" in readme
+    rule = {
+        name: against.loc[(theirs, f"{stiffness}, starts 0.001 m off")]
+        for name, stiffness in (("1e6", "1000000.0"), ("1e7", "10000000.0"))
+    }
+    assert (
+        f"the paper's rule at {int(rule['1e6']['better'])} of 8 at 1e6 N/m "
+        f"(p = {rule['1e6']['sign_test_p']:.3g}) and {int(rule['1e7']['better'])} of 8 at 1e7 "
+        f"N/m (p = {rule['1e7']['sign_test_p']:.3g})" in page
+    )
+    per_run = pd.read_parquet(summary / "per_run.parquet")
+    lost = per_run[
+        (per_run["method"] == theirs)
+        & (per_run["planner.simulated_hole"] == "true_hole")
+        & (per_run["offset_deploy_success_rate"] == 0)
+    ]
+    assert set(lost["planner.simulator.point_stiffness_n_per_m"]) == {"None", "10000000.0"}
+    assert set(zip(lost["planner.start_x_m"], lost["planner.seed"])) == {("-0.04", "1")}
+    assert "(−40 mm, seed 1: none of its 10 trials)" in page
     # Wall times: point-trained runs against their twins made on the same kind of CPU.
     seconds: dict[str, list[float]] = {"point": [], "real": []}
     for study in (CONTACT_MODEL, SIM_TO_REAL):
@@ -1112,3 +1130,7 @@ def test_contact_model_prose_quotes_its_table():
         f"({len(seconds['real'])} runs): {real_s / point_s:.2g}×" in page
     )
     assert f"at {real_s / point_s:.2g}× less wall time a run" in readme
+    assert (
+        f"≈ {33 * point_s / 2 / 3600:.1f} h instead of ≈ {33 * real_s / 2 / 3600:.1f} h at `-j2`"
+        in page
+    )

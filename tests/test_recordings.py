@@ -290,3 +290,18 @@ def test_a_bad_recording_rate_is_named_before_any_job(section, message):
     config["recordings"] = {**config["recordings"], **section}
     with pytest.raises(ConfigError, match=f"^{message}"):
         check_study(config, study_points(config))
+
+
+def test_the_envelope_keeps_a_peak_in_a_partial_last_bin_and_sees_past_nan():
+    """The last bin may be shorter than the rest, with no full-rate tail to cover it; a NaN (a
+    diverged step) in a bin does not hide its lowest and highest."""
+    from pih.records.recordings import envelope_indices
+
+    t = np.arange(1015) * 0.0005  # 10 ms bins of 20 steps: the last has 15
+    values = np.zeros(1015)
+    values[1007] = 5.0
+    assert 1007 in envelope_indices(t, values, 100.0, 0.0)
+    values = np.zeros(40)
+    values[[3, 5, 7]] = [np.nan, 9.0, -9.0]
+    kept = envelope_indices(t[:40], values, 100.0, 0.0)
+    assert {5, 7} <= set(kept) and 3 not in kept

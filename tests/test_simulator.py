@@ -157,6 +157,7 @@ def test_the_simulators_prediction_is_the_model_error_that_makes_reality_its_sce
     assert on_simulator(recorded(**POINT), point_1e7)
     assert not on_simulator(recorded(**POINT), point_1e6)
     assert not on_simulator(recorded(**POINT), {**point_1e7, "material.friction": 0.3})
+    assert not on_simulator(recorded(), {}, "friction_0_3")  # named, its settings not recorded
 
 
 def deployments(rows: list[tuple]) -> pd.DataFrame:
@@ -172,7 +173,8 @@ def deployments(rows: list[tuple]) -> pd.DataFrame:
         "on_simulator",
         "deploy_success_rate",
     ]
-    return pd.DataFrame(rows, columns=names).assign(start_std_m=0.001, run="")
+    frame = pd.DataFrame(rows, columns=names).assign(start_std_m=0.001)
+    return frame.assign(run=frame[names[:5]].agg("/".join, axis=1))  # a training: its levels
 
 
 def test_point_trained_runs_are_compared_with_their_prediction_and_their_twins():
@@ -215,3 +217,6 @@ def test_point_trained_runs_are_compared_with_their_prediction_and_their_twins()
     assert (point["pairs"], point["better"], point["worse"], point["tied"]) == (2, 0, 1, 1)
     assert (real["median_run_s"], point["median_run_s"]) == (600.0, 150.0)
     assert training_model_table(frame, ["planner.seed"], 0.001).empty
+    # A run redeployed at its own deployment's std counts once.
+    again = pd.concat([frame, frame.iloc[[4]]], ignore_index=True)
+    assert training_model_table(again, keys, 0.001).equals(training_model_table(frame, keys, 0.001))

@@ -59,7 +59,9 @@ def library_of(script):
     )
 
 
-# The Rerun recordings' rates (a job's params: a changed rate re-makes the recordings' jobs).
+# The Rerun recordings' rates, as params of the jobs that write recordings: under Snakemake's
+# default rerun triggers a changed rate re-runs those jobs (plans, validation runs) whole;
+# `--rerun-triggers mtime` keeps them (docs/workflow.md, "Recordings in detail").
 RECORDINGS = dataclasses.asdict(recordings_section(config))
 
 # Each planning run is redeployed once per std (file names carry the std as Python prints it).

@@ -433,7 +433,7 @@ def _deployment(
         **{key: str(run.level(key)) for key in split_keys(keys)},
         "start_std_m": std,
         "model_error": model_error,
-        "on_simulator": on_simulator(run.record["config"], model_error_settings),
+        "on_simulator": on_simulator(run.record["config"], model_error_settings, model_error),
         "deploy_success_rate": rate,
     }
     return pd.DataFrame([row])

@@ -12,7 +12,7 @@ from typing import Any
 
 import pandas as pd
 
-from pih.config import plain, recorded_config, to_mapping
+from pih.config import ConfigError, plain, recorded_config, to_mapping
 from pih.planning.config import method_label, recorded_planner, upgraded
 from pih.planning.run_record import Phase, phase_rows
 from pih.records.outputs import read_metadata, read_provenance
@@ -194,16 +194,35 @@ def model_error_settings(record: Mapping[str, Any]) -> dict[str, Any]:
     return dict((record.get("model_error") or {}).get("settings") or {})
 
 
-def on_simulator(config: Mapping[str, Any], model_error: Mapping[str, Any] | None = None) -> bool:
+def on_simulator(
+    config: Mapping[str, Any],
+    model_error: Mapping[str, Any] | None = None,
+    error_name: str = NO_MODEL_ERROR,
+) -> bool:
     """Whether deployment trials on a run's real scene (its recorded ``config``'s), changed by
     a ``model_error``'s dotted scene settings, ran on the run's own training simulator, the hole
-    aside: then they are what the simulator itself predicted (docs/contact_model.md)."""
+    aside: then they are what the simulator itself predicted (docs/contact_model.md). A named
+    error whose settings were not recorded is no prediction."""
+    if error_name != NO_MODEL_ERROR and not model_error:
+        return False
     scene = recorded_config(SceneConfig, config, "scene")
     changes = recorded_planner(config).simulator.scene_changes
     training = scene.replace(**changes) if changes else scene
     if model_error:
         scene = scene_with(to_mapping(scene), model_error, "robustness.model_error")
     return scene == training
+
+
+def redeployed_run(path: Path, record: Mapping[str, Any]) -> Path:
+    """The ``rollouts.parquet`` a one-run redeployment file redeployed: its recorded input, found
+    beside the file (where the workflow and ``pih publish`` keep it) or where it was recorded."""
+    inputs = [Path(p) for p in record.get("inputs", {}) if Path(p).name == "rollouts.parquet"]
+    for candidate in [path.with_name("rollouts.parquet"), *inputs]:
+        if candidate.is_file():
+            return candidate
+    raise ConfigError(
+        f"{path}: the run it redeployed ({inputs or 'rollouts.parquet'}) is not found"
+    )
 
 
 def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -> pd.DataFrame:
@@ -218,7 +237,7 @@ def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -
         deploy = phase_rows(pd.read_parquet(path, columns=["phase", "success"]), Phase.DEPLOY)
         point = upgraded_point(record["sweep_point"])
         # The record holds the scene deployed on; the run's own holds the one it trained beside.
-        run_config = read_provenance(path.with_name("rollouts.parquet"))["config"]
+        run_config = read_provenance(redeployed_run(path, record))["config"]
         rows.append(
             {
                 "method": variant(planner),
@@ -226,7 +245,9 @@ def redeployment_summaries(files: Iterable[str | Path], sweep_keys: list[str]) -
                 **{key: str(point[key]) for key in split_keys(sweep_keys)},
                 "start_std_m": planner["deploy_start_std_m"],
                 "model_error": model_error_name(record),
-                "on_simulator": on_simulator(run_config, model_error_settings(record)),
+                "on_simulator": on_simulator(
+                    run_config, model_error_settings(record), model_error_name(record)
+                ),
                 "deploy_success_rate": float(deploy["success"].mean()),
             }
         )

@@ -16,6 +16,7 @@ def replay(run: Path, query: str, output: Path | None, settings: list[str]) -> i
     from pih.config import to_mapping
     from pih.planning.planner import Planner
     from pih.planning.run_record import RecordedRun, recorded_pose, recorded_rollout, succeeded
+    from pih.records.config import RecordingsConfig
     from pih.records.provenance import record as provenance_record
     from pih.records.recordings import record_insertion
     from pih.scene.overrides import scene_settings, scene_with
@@ -55,14 +56,15 @@ def replay(run: Path, query: str, output: Path | None, settings: list[str]) -> i
         differs += not same
         if index == 0:
             name = f"replay_{row['phase']}_{row['iteration']}_{row['rollout']}"
-            extra = {"query": query, "set": overrides}
+            rates = RecordingsConfig()
+            extra = {"query": query, "set": overrides, "recordings": to_mapping(rates)}
             provenance = provenance_record(
                 "replay", config=config, inputs=[run / "rollouts.parquet"], extra=extra
             )
             target_file = output or run / f"{name}.rrd"
             # Drawn in the scene it ran in: a training row in the planner's own simulator.
             ran_in = planner.scene_for(rollout.simulated_hole).config
-            record_insertion(target_file, trace, ran_in, name, provenance)
+            record_insertion(target_file, trace, ran_in, name, provenance, rates)
             print(f"# {target_file}: the first row's replay, as a Rerun recording")
         pose = ",".join(f"{v:.9g}" for v in recorded_pose(row, "final_bottom"))
         print(

@@ -20,7 +20,9 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
     """README's results for ``study``, generated from its published summary tables: the
     headline per method (and per compared level, :func:`pih.reporting.summary.planning_rows`) and its
     paired comparisons from offset starts (those from the training start are in
-    ``summary.md``); with replays at a finer step, both at the runs' step and at that one."""
+    ``summary.md``); with replays at a finer step, both at the runs' step and at that one. A
+    study of the planner's own simulator (its tables have ``training_model``) shows that table
+    instead (:func:`pih.reporting.summary.training_model_rows`)."""
     from pih.records.outputs import markdown_table
     from pih.reporting.summary import perturbed_pairs, planning_rows, step_pairs
 

@@ -109,11 +109,17 @@ def envelope_indices(
     peak of one sample survives, and the plot's envelope is the full series'), every one in the
     last ``tail_s`` seconds, and the first and the last."""
     every = _samples_per_bin(time_s, rate_hz)
-    whole = (len(values) // every) * every
-    bins = np.asarray(values[:whole], dtype=float).reshape(-1, every)
-    starts = np.arange(0, whole, every)
-    extremes = [starts + np.argmin(bins, axis=1), starts + np.argmax(bins, axis=1)]
-    return np.unique(np.concatenate([*extremes, frame_indices(time_s, rate_hz, tail_s)]))
+    n = len(values)
+    padded = np.full(-(-n // every) * every, np.nan)  # the last bin may be partial
+    padded[:n] = values
+    bins = padded.reshape(-1, every)
+    starts = np.arange(0, len(padded), every)
+    # NaN (a diverged step) does not hide a bin's extremes; an all-NaN bin keeps its first sample.
+    finite = np.isfinite(bins)
+    low = np.where(finite, bins, np.inf).argmin(axis=1)
+    high = np.where(finite, bins, -np.inf).argmax(axis=1)
+    kept = np.concatenate([starts + low, starts + high, frame_indices(time_s, rate_hz, tail_s)])
+    return np.unique(kept[kept < n])
 
 
 def _log_scene(
