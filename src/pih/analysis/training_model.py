@@ -13,8 +13,8 @@ import pandas as pd
 
 from pih.analysis.run_summary import NO_MODEL_ERROR, split_keys
 from pih.analysis.statistics import pair_counts, rate_over_runs
+from pih.study.points import SIMULATOR_PREFIX
 
-SIMULATOR_PREFIX = "planner.simulator."
 SIMULATED_HOLE_KEY = "planner.simulated_hole"
 REAL_SCENE = "the real scene's"
 """The training model of runs whose simulator is the real scene (the hole aside)."""

@@ -29,14 +29,6 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
     tables = published / "planning" / "summary"
     if study.in_parts and not tables.is_dir():
         return _in_progress_block(published, study)
-    success, robustness, paired = (
-        pd.read_parquet(tables / f"{name}.parquet") for name in ("success", "robustness", "paired")
-    )
-    time_step = None
-    pairs, caption = perturbed_pairs(paired, robustness), "Paired from offset starts"
-    if (tables / "time_step.parquet").is_file():
-        time_step = pd.read_parquet(tables / "time_step.parquet")
-        pairs, caption = step_pairs(paired, robustness), "Paired from offset starts, at each step"
     record = read_provenance(tables / "success.parquet")
     drake = record.get("packages", {}).get("drake", "?")
     made = f"code `{record['code_version']}`, Drake {drake}, {record['created_utc'][:10]}"
@@ -53,6 +45,14 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
     begin, end = study.markers
     if (tables / "training_model.parquet").is_file():
         return _training_model_block(tables, source, (begin, end))
+    success, robustness, paired = (
+        pd.read_parquet(tables / f"{name}.parquet") for name in ("success", "robustness", "paired")
+    )
+    time_step = None
+    pairs, caption = perturbed_pairs(paired, robustness), "Paired from offset starts"
+    if (tables / "time_step.parquet").is_file():
+        time_step = pd.read_parquet(tables / "time_step.parquet")
+        pairs, caption = step_pairs(paired, robustness), "Paired from offset starts, at each step"
     source += "; deployment success, 95 % interval over runs:"
     source = textwrap.fill(source, 100)
     return "\n\n".join(

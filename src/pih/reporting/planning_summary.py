@@ -37,9 +37,10 @@ def write_planning_summary(
     record: dict[str, Any],
 ) -> None:
     """Every summary file of a study's planning runs under ``directory`` (``runs``,
-    ``cost_bands``, ``success``, ``paired``, ``robustness``, ``ablation``, ``per_run`` and, with
-    replays, ``time_step``, and with a swept ``planner.simulator``, ``training_model``: ``.parquet`` and ``.md``; ``success.csv``; ``fig9_cost_bands.{png,pdf}``, ``fig_deploy_success.png``), each
-    with the provenance ``record``."""
+    ``cost_bands``, ``success``, ``paired``, ``robustness``, ``ablation``, ``per_run``, with
+    replays ``time_step``, with a swept ``planner.simulator`` ``training_model``: ``.parquet``
+    and ``.md``; ``success.csv``; ``fig9_cost_bands.{png,pdf}``, ``fig_deploy_success.png``),
+    each with the provenance ``record``."""
     directory = Path(directory)
     frames = {
         "runs": (runs, {**BEST_COST_COLUMNS, **level_columns(sweep_keys)}),
