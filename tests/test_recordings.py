@@ -236,7 +236,8 @@ def test_insertion_series_are_decimated_keeping_every_peak_and_the_tail(tmp_path
     and highest (a one-sample spike survives), the last second at every step, the scene at its
     frame rate."""
     from pih.records.config import RecordingsConfig
-    from pih.records.recordings import DEPTH_ENTITY, envelope_indices
+    from pih.records.recordings import DEPTH_ENTITY
+    from pih.records.sampling import envelope_indices
 
     n = 40_000
     trace = _insertion_trace(0.001)
@@ -295,7 +296,7 @@ def test_a_bad_recording_rate_is_named_before_any_job(section, message):
 def test_the_envelope_keeps_a_peak_in_a_partial_last_bin_and_sees_past_nan():
     """The last bin may be shorter than the rest, with no full-rate tail to cover it; a NaN (a
     diverged step) in a bin does not hide its lowest and highest."""
-    from pih.records.recordings import envelope_indices
+    from pih.records.sampling import envelope_indices
 
     t = np.arange(1015) * 0.0005  # 10 ms bins of 20 steps: the last has 15
     values = np.zeros(1015)

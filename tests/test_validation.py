@@ -219,3 +219,65 @@ def test_the_rule_picks_per_contact_model_the_admissible_variant_with_the_best_w
     per_offset = table[(table["variant"] == "balanced") & (table["alignment"] == "chamfer_start")]
     errors = per_offset.filter(like="rel_err_").dropna(how="all")
     assert worst == errors.max(axis=None)
+
+
+def _chattering_trace(offset_m: float, seed: int) -> Trace:
+    """Whitney's curve at a 0.5 ms step, the depth jittering back and forth (so first passes
+    matter), noisy forces, and 100 N spikes the comparison does not read."""
+    coarse = synthetic_trace(offset_m, 2e-5)
+    n = 20 * len(coarse)
+    rng = np.random.default_rng(seed)
+    step = np.arange(n) / 20.0
+    index = np.arange(len(coarse))
+
+    def fine(values):
+        return np.column_stack([np.interp(step, index, c) for c in np.atleast_2d(values.T)])
+
+    depth = fine(coarse.insertion_depth_m)[:, 0] + rng.normal(0.0, 2e-6, n)
+    force = fine(coarse.contact_force) + rng.normal(0.0, 0.05, (n, 3))
+    force[int(0.97 * n), 1] = 100.0
+    # And one inside the chamfer-peak window (depth ≤ z_c ≈ 0.98 mm) on a step that is no first
+    # pass: the comparison never reads it, unless a file kept too few steps before it.
+    first_pass = depth > np.maximum.accumulate(np.r_[-np.inf, depth[:-1]])
+    inside = np.flatnonzero(~first_pass & (depth > 0.0007) & (depth < 0.0009))
+    force[inside[len(inside) // 2], 1] = 100.0
+    q_peg = fine(coarse.q_peg)
+    zeros = np.zeros((n, 3))
+    return Trace(
+        time_s=np.arange(n) * 0.0005,
+        q_robot=fine(coarse.q_robot),
+        q_peg=q_peg,
+        q_peg_top=zeros,
+        q_peg_bottom=zeros,
+        contact_force=force,
+        contact_patches=np.ones(n, dtype=np.int64),
+        spring_force=zeros,
+        spring_energy_j=np.zeros(n),
+        insertion_depth_m=depth,
+        penetration_m=np.zeros(n),
+    )
+
+
+@pytest.mark.parametrize("final_depth_m", [0.03, 0.0004])
+def test_a_stored_validation_trace_compares_as_the_whole_trace(tmp_path, final_depth_m):
+    """The trace file keeps every step up to the deepest depth the comparison reads and the
+    envelope past it: the metrics and aligned curves from the file equal the whole trace's,
+    value for value, under both alignments, also for a final depth inside the chamfer-peak
+    window; the spike past the window and the deepest depth survive."""
+    from pih.records.outputs import read_trace, write_trace
+    from pih.validation.experiment import ALIGNMENTS, STORED_COLUMNS, stored_samples
+
+    config = ValidationConfig(final_depth_m=final_depth_m)
+    trace = _chattering_trace(0.001, seed=3)
+    kept = stored_samples(trace, SCENE, 0.001, config)
+    assert len(kept) < 0.9 * len(trace)
+    write_trace(trace, tmp_path / "trace.parquet", {"run_id": "t"}, kept, STORED_COLUMNS)
+    stored = read_trace(tmp_path / "trace.parquet")
+    assert np.isnan(stored.spring_force).all() and (stored.contact_patches == -1).all()
+    assert (stored.contact_force[:, 1] == 100.0).sum() == 2
+    assert stored.insertion_depth_m.max() == trace.insertion_depth_m.max()
+    for alignment in ALIGNMENTS:
+        whole = compare(trace, SCENE, 0.001, config, alignment)
+        part = compare(stored, SCENE, 0.001, config, alignment)
+        assert part.metrics == pytest.approx(whole.metrics, nan_ok=True, rel=0, abs=0)
+        assert part.aligned.equals(whole.aligned)

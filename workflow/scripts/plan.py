@@ -6,6 +6,7 @@ from pih.planning.planner import Planner
 from pih.planning.run_record import PATH_COLUMNS, ROLLOUT_COLUMNS
 from pih.records.outputs import write_table
 from pih.records.recordings import record_planning
+from pih.records.sampling import path_samples
 from pih.scene.config import SceneConfig
 from pih.study.points import seed_key, variant_overrides
 from pih.workflow.jobs import job_provenance, logged
@@ -50,11 +51,15 @@ with logged(snakemake.log[0]):
         ROLLOUT_COLUMNS,
         extra_metadata={"run": summary, "timing": timing},
     )
-    write_table(record.best_paths, snakemake.output.best_paths, provenance, PATH_COLUMNS)
+    # The best paths keep the steps the costs sum over (costs.sample_period_s) and each path's last.
+    best_paths = record.best_paths[
+        path_samples(record.best_paths["iteration"].to_numpy(), planner.cost_samples.step)
+    ].reset_index(drop=True)
+    write_table(best_paths, snakemake.output.best_paths, provenance, PATH_COLUMNS)
     record_planning(
         snakemake.output.recording,
         record.rollouts,
-        record.best_paths,
+        best_paths,
         scene,
         provenance["run_id"],
         {**provenance, "recordings": {"frame_rate_hz": snakemake.params.frame_rate_hz}},

@@ -7,7 +7,7 @@ from pih.records.recordings import record_insertion
 from pih.scene.config import SceneConfig
 from pih.scene.simulation import PegInHoleScene
 from pih.validation.config import ValidationConfig
-from pih.validation.experiment import run_insertion
+from pih.validation.experiment import STORED_COLUMNS, run_insertion, stored_samples
 from pih.workflow.jobs import job_provenance, logged
 
 with logged(snakemake.log[0]):
@@ -28,15 +28,17 @@ with logged(snakemake.log[0]):
         },
         simulator=scene.simulator_settings(),
     )
-    write_trace(trace, snakemake.output.trace, record)
+    kept = stored_samples(trace, scene, offset, experiment)
+    write_trace(trace, snakemake.output.trace, record, kept, STORED_COLUMNS)
     record_insertion(
         snakemake.output.recording,
         trace,
         scene,
         record["run_id"],
         {**record, "recordings": snakemake.params.recordings},
-        from_mapping(RecordingsConfig, snakemake.params.recordings, "recordings"),
+        from_mapping(RecordingsConfig, snakemake.params.recordings, "recordings").for_validation(),
     )
     print(
-        f"{trace.status} {trace.reason}; {len(trace)} steps, deepest {trace.insertion_depth_m.max():.5f} m"
+        f"{trace.status} {trace.reason}; {len(trace)} steps ({len(kept)} stored), "
+        f"deepest {trace.insertion_depth_m.max():.5f} m"
     )

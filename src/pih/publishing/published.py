@@ -304,19 +304,21 @@ def recorded_sections(config: Mapping[str, Any]) -> dict[str, dict[str, Any] | s
 @functools.cache
 def validation_hash_at(commit: str) -> str | None:
     """:func:`pih.records.provenance.modules_hash` of :data:`VALIDATION_MODULES` as they were
-    at ``commit`` (``-dirty`` dropped), read from this repository's git history; None when it
-    does not hold them."""
+    at ``commit`` (``-dirty`` dropped), read from this repository's git history (a module the
+    commit did not have reads as empty); None when the history does not hold the commit."""
+    revision = commit.removesuffix("-dirty")
+
+    def git(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            ["git", *args], cwd=REPOSITORY, capture_output=True, text=True, timeout=30
+        )
 
     def source(name: str) -> str:
         path = module_path(name).relative_to(REPOSITORY).as_posix()
-        return subprocess.run(
-            ["git", "show", f"{commit.removesuffix('-dirty')}:{path}"],
-            cwd=REPOSITORY,
-            capture_output=True,
-            text=True,
-            check=True,
-            timeout=30,
-        ).stdout
+        shown = git("show", f"{revision}:{path}")
+        if shown.returncode and git("cat-file", "-e", f"{revision}^{{commit}}").returncode:
+            raise subprocess.CalledProcessError(shown.returncode, "git show", stderr=shown.stderr)
+        return shown.stdout if shown.returncode == 0 else ""
 
     try:
         return modules_hash(VALIDATION_MODULES, source)

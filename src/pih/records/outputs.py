@@ -18,7 +18,7 @@ import signal
 import socket
 import tempfile
 import threading
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Any
@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
+from numpy.typing import NDArray
 
 from pih.records.provenance import PROVENANCE_KEY, canonical_json, stable
 from pih.scene.trace import Trace
@@ -90,7 +91,12 @@ def trace_frame(trace: Trace) -> pd.DataFrame:
 
 
 def frame_trace(frame: pd.DataFrame, status: str = "ok", reason: str = "") -> Trace:
-    """Inverse of :func:`trace_frame`."""
+    """Inverse of :func:`trace_frame`; a column the file does not keep reads as NaN (contact
+    patches as -1, not logged)."""
+    missing = [name for name in TRACE_COLUMNS if name not in frame.columns]
+    frame = frame.assign(**{name: np.nan for name in missing})
+    if "contact_patches" in missing:
+        frame["contact_patches"] = -1
     arrays: dict[str, Any] = {"time_s": frame["time_s"].to_numpy()}
     for prefix, name in _POSE_FIELDS.items():
         arrays[name] = frame[[f"{prefix}_{a}" for a in ("x_m", "y_m", "theta_rad")]].to_numpy()
@@ -345,18 +351,27 @@ def read_units(path: str | Path) -> dict[str, str]:
     return {f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema}
 
 
-def write_trace(trace: Trace, path: str | Path, provenance: Mapping[str, Any]) -> None:
-    """One rollout trace to Parquet; its status, reason and step go in ``pih.trace`` metadata."""
+def write_trace(
+    trace: Trace,
+    path: str | Path,
+    provenance: Mapping[str, Any],
+    rows: NDArray[np.intp] | None = None,
+    columns: Sequence[str] = tuple(TRACE_COLUMNS),
+) -> None:
+    """One rollout trace to Parquet, its steps ``rows`` (default: all) and ``columns`` only; its
+    status, reason, step and number of simulated steps go in ``pih.trace`` metadata."""
+    frame = trace_frame(trace)[list(columns)]
     write_table(
-        trace_frame(trace),
+        frame if rows is None else frame.iloc[rows].reset_index(drop=True),
         path,
         provenance,
-        TRACE_COLUMNS,
+        {name: TRACE_COLUMNS[name] for name in columns},
         extra_metadata={
             "trace": {
                 "status": trace.status,
                 "reason": trace.reason,
                 "time_step_s": trace.time_step_s,
+                "simulated_steps": len(trace),
             }
         },
     )

@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from pih.records.config import RecordingsConfig
 from pih.records.outputs import write_with
 from pih.records.provenance import canonical_json
+from pih.records.sampling import envelope_indices, frame_indices
 from pih.scene.config import SceneConfig, hole_outline
 from pih.scene.frames import offset_along_axis
 from pih.scene.trace import Trace
@@ -81,45 +82,6 @@ def _open(
     rec.save(path, default_blueprint=blueprint)
     rec.send_property("provenance", rr.AnyValues(record=canonical_json(dict(provenance))))
     return rec
-
-
-def _samples_per_bin(time_s: NDArray[np.float64], rate_hz: float) -> int:
-    """How many steps make 1/``rate_hz`` s of a trace (at least one)."""
-    step = float(np.median(np.diff(time_s))) if len(time_s) > 1 else 0.0
-    return max(1, round(1.0 / (rate_hz * step))) if step > 0 else 1
-
-
-def frame_indices(
-    time_s: NDArray[np.float64], rate_hz: float, tail_s: float = 0.0
-) -> NDArray[np.intp]:
-    """The samples drawn as scene frames: about ``rate_hz`` a second, every one in the last
-    ``tail_s`` seconds, and always the first and the last."""
-    n = len(time_s)
-    if n == 0:
-        return np.arange(0)
-    tail = np.flatnonzero(time_s >= time_s[-1] - tail_s) if tail_s > 0 else []
-    every = _samples_per_bin(time_s, rate_hz)
-    return np.unique(np.concatenate([np.arange(0, n, every), tail, [n - 1]])).astype(np.intp)
-
-
-def envelope_indices(
-    time_s: NDArray[np.float64], values: NDArray[np.float64], rate_hz: float, tail_s: float
-) -> NDArray[np.intp]:
-    """The samples of a series drawn: in each bin of 1/``rate_hz`` s its lowest and highest (a
-    peak of one sample survives, and the plot's envelope is the full series'), every one in the
-    last ``tail_s`` seconds, and the first and the last."""
-    every = _samples_per_bin(time_s, rate_hz)
-    n = len(values)
-    padded = np.full(-(-n // every) * every, np.nan)  # the last bin may be partial
-    padded[:n] = values
-    bins = padded.reshape(-1, every)
-    starts = np.arange(0, len(padded), every)
-    # NaN (a diverged step) does not hide a bin's extremes; an all-NaN bin keeps its first sample.
-    finite = np.isfinite(bins)
-    low = np.where(finite, bins, np.inf).argmin(axis=1)
-    high = np.where(finite, bins, -np.inf).argmax(axis=1)
-    kept = np.concatenate([starts + low, starts + high, frame_indices(time_s, rate_hz, tail_s)])
-    return np.unique(kept[kept < n])
 
 
 def _log_scene(

@@ -18,8 +18,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
 from pih.records.outputs import markdown_table
+from pih.records.sampling import envelope_indices
 from pih.scene.config import SceneConfig
 from pih.scene.trace import RobotTrajectory, Trace
 from pih.validation.config import ValidationConfig
@@ -139,6 +141,55 @@ def first_contact_depth(sim: pd.DataFrame, threshold_n: float = CONTACT_THRESHOL
     if i == 0:
         return float(d[0])
     return float(d[i - 1] + (threshold_n - f[i - 1]) / (f[i] - f[i - 1]) * (d[i] - d[i - 1]))
+
+
+STORED_COLUMNS: tuple[str, ...] = (
+    "time_s",
+    *(f"{frame}_{axis}" for frame in ("robot", "peg") for axis in ("x_m", "y_m", "theta_rad")),
+    "contact_fx_n",
+    "contact_fy_n",
+    "contact_moment_nm",
+    "insertion_depth_m",
+)
+"""The columns a validation trace file keeps: what the comparison reads, and the poses and
+contact wrench that draw the insertion again (the spring and the peg's other points follow from
+them)."""
+STORED_BIN_RATE_HZ = 100.0
+"""Past the depths the comparison reads, a trace file keeps each 1/rate s bin's extremes."""
+
+
+def stored_samples(
+    trace: Trace, scene: SceneConfig, offset_m: float, config: ValidationConfig
+) -> NDArray[np.intp]:
+    """The steps a validation trace file keeps: every one until the tip first passes the deepest
+    depth any comparison reads (the final depth under either alignment, and the chamfer window
+    where the first peak is looked for), then each 1/:data:`STORED_BIN_RATE_HZ` s bin's first,
+    lowest and highest F_x, F_z, θ and depth, and the last. :func:`compare` of the kept steps is
+    that of the whole trace, value for value; a trace without chamfer contact is kept whole."""
+    params = whitney_params(scene, offset_m)
+    z_c = whitney.chamfer_height(params)
+    sim = to_whitney_frame(trace, scene.hole.x_m)
+    try:
+        shifts = (
+            -z_c - first_contact_depth(sim),
+            -ENTRANCE_SIDE_M - first_peak_depth(sim, params),
+        )
+    except ValueError:
+        return np.arange(len(trace))
+    deepest = max(z_c, *(config.final_depth_m - shift for shift in shifts))
+    passed = np.flatnonzero(trace.insertion_depth_m > deepest)
+    if passed.size == 0:
+        return np.arange(len(trace))
+    cut = int(passed[0]) + 1
+    time_s = trace.time_s[cut:]
+    series = (
+        trace.contact_force[cut:, 0],
+        trace.contact_force[cut:, 1],
+        trace.q_peg[cut:, 2],
+        trace.insertion_depth_m[cut:],
+    )
+    tail = [envelope_indices(time_s, values, STORED_BIN_RATE_HZ, 0.0) for values in series]
+    return np.concatenate([np.arange(cut), cut + np.unique(np.concatenate(tail))])
 
 
 @dataclass(frozen=True)
