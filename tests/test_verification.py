@@ -412,3 +412,48 @@ def test_pih_verify_makes_an_unused_function_current_and_names_a_changed_cost(tm
     ), verification.differences
     assert len(read_record(record_path)) == 1
     assert stale() != []
+
+
+def test_a_null_is_compared_by_its_place_not_by_the_bytes_behind_it():
+    import numpy as np
+    import pyarrow as pa
+
+    validity = pa.py_buffer(np.packbits([1, 0, 1], bitorder="little").tobytes())
+
+    def table(behind_null: float) -> pa.Table:
+        data = pa.py_buffer(np.array([1.0, behind_null, 3.0]).tobytes())
+        return pa.table({"cost": pa.Array.from_buffers(pa.float64(), 3, [validity, data])})
+
+    assert table(7.0).equals(table(-2.0))
+    assert column_digests(table(7.0)) == column_digests(table(-2.0))
+    moved = pa.table({"cost": pa.array([1.0, 3.0, None])})
+    assert column_digests(moved) != column_digests(table(7.0))
+
+
+def test_an_older_versions_best_paths_are_thinned_alike_before_they_are_compared(tmp_path):
+    """A newer plan script keeps each path's cost samples and its last step: the older file's
+    every-step paths are thinned at the stride the newer file's times show, then compared whole,
+    so a row missing or added still differs."""
+    import numpy as np
+
+    from pih.records.sampling import path_samples
+
+    units = {"iteration": ("1", "i"), "time_s": ("s", "t"), "robot_x_m": ("m", "x")}
+    steps = [np.arange(0, 45) * 0.0005, np.arange(0, 33) * 0.0005]  # a path that stopped early
+    full = pd.DataFrame(
+        {
+            "iteration": np.repeat([1, 2], [len(t) for t in steps]),
+            "time_s": np.concatenate(steps),
+            "robot_x_m": np.sin(np.arange(78.0)),
+        }
+    )
+    thinned = full[path_samples(full["iteration"].to_numpy(), 20)].reset_index(drop=True)
+    assert list(thinned["time_s"].round(4)) == [0, 0.01, 0.02, 0.022, 0, 0.01, 0.016]
+    old, new = tmp_path / "old.parquet", tmp_path / "new.parquet"
+    write_table(full, old, record("plan"), units)
+    outputs = {"best_paths.parquet": old}, {"best_paths.parquet": new}
+    write_table(thinned, new, record("plan"), units)
+    assert compare_outputs(*outputs)[1] == []
+    for changed in (thinned.drop(index=2), pd.concat([thinned, thinned.tail(1)])):
+        write_table(changed.reset_index(drop=True), new, record("plan"), units)
+        assert compare_outputs(*outputs)[1] == ["best_paths.parquet: column iteration differs"]

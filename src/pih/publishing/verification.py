@@ -263,13 +263,24 @@ def run_item(tree: Path, item: Item, workdir: Path) -> dict[str, Path]:
     return {name: run / name for name in item.outputs}
 
 
-def column_digests(path: Path) -> dict[str, str]:
-    """sha256 of each column's data, bit for bit (NaNs by their bits), without the schema's
-    metadata (the provenance and timings) or the columns' (units and descriptions, which a
-    change of wording moves)."""
-    table = pq.read_table(path).combine_chunks()
+THINNED_OUTPUTS = {"best_paths.parquet": "iteration"}
+"""Outputs of per-step paths (name: the column labelling each path) that a newer plan script
+keeps at a stride (:func:`pih.records.sampling.path_samples`): an older version's are thinned
+alike before they are compared."""
+
+
+def column_digests(source: Path | pa.Table) -> dict[str, str]:
+    """sha256 of each column's data, bit for bit (NaNs by their bits; a null by its place, not
+    by the undefined bytes behind it), without the schema's metadata (the provenance and
+    timings) or the columns' (units and descriptions, which a change of wording moves)."""
+    table = source if isinstance(source, pa.Table) else pq.read_table(source)
+    table = table.combine_chunks()
     bare = pa.schema([field.remove_metadata() for field in table.schema])
-    table = pa.Table.from_arrays(table.columns, schema=bare)
+    columns = [
+        pa.array(column.to_pylist(), type=column.type) if column.null_count else column
+        for column in table.columns
+    ]
+    table = pa.Table.from_arrays(columns, schema=bare)
     digests = {}
     for name in table.column_names:
         sink = pa.BufferOutputStream()
@@ -280,12 +291,27 @@ def column_digests(path: Path) -> dict[str, str]:
     return digests
 
 
+def thinned_like(old: pa.Table, new: pa.Table, path_column: str) -> pa.Table:
+    """``old``'s paths at the stride of ``new``'s (the ratio of their first paths' first time
+    steps); ``old`` itself when it is not the finer."""
+    from pih.records.sampling import path_samples
+
+    if old.num_rows <= new.num_rows or min(old.num_rows, new.num_rows) < 2:
+        return old
+    old_t, new_t = (table.column("time_s").to_numpy() for table in (old, new))
+    every = round((new_t[1] - new_t[0]) / (old_t[1] - old_t[0]))
+    return old.filter(pa.array(path_samples(old.column(path_column).to_numpy(), every)))
+
+
 def compare_outputs(old: Mapping[str, Path], new: Mapping[str, Path]) -> tuple[str, list[str]]:
     """The new outputs' digest and, where they differ from the old, the first column of each
-    file that does."""
+    file that does (a path output of an older version thinned alike: :data:`THINNED_OUTPUTS`)."""
     digest, differences = hashlib.sha256(), []
     for name in old:
-        before, after = column_digests(old[name]), column_digests(new[name])
+        before, after = pq.read_table(old[name]), pq.read_table(new[name])
+        if name in THINNED_OUTPUTS:
+            before = thinned_like(before, after, THINNED_OUTPUTS[name])
+        before, after = column_digests(before), column_digests(after)
         for column in sorted(before.keys() | after.keys()):
             digest.update(f"{name}:{column}:{after.get(column)}".encode())
         changed = [c for c in before if before[c] != after.get(c)]
