@@ -443,3 +443,20 @@ def test_each_runs_first_sensing_sits_beside_its_outcome():
     assert list(table["offset_deploy_success_rate"]) == [0.9, 0.6, 0.2]
     assert set(table["offset_start_std_m"]) == {0.001}
     assert list(table.columns[:3]) == ["method", "planner.start_x_m", "run"]
+
+
+def test_a_redeployment_records_the_simulator_of_the_scene_it_deployed_on():
+    """Under a model error the redeployment's record names the real scene's settings, not the
+    training run's (which the run's own record keeps)."""
+    from pih.planning.run_record import RecordedRun
+    from pih.study.redeployment_record import redeployment_fields
+
+    root = Path(__file__).resolve().parents[1]
+    rollouts = next((root / "published" / "default" / "planning").glob("*/rollouts.parquet"))
+    run = RecordedRun.read(rollouts)
+    fields = redeployment_fields(
+        run, 0.001, {"name": "slippery", "settings": {"material.friction": 0.5}}
+    )
+    assert fields["simulator"]["friction"] == 0.5 != run.record["simulator"]["friction"]
+    assert fields["config"]["scene"]["material"]["friction"] == 0.5
+    assert redeployment_fields(run, 0.001, {})["simulator"] == run.record["simulator"]

@@ -76,8 +76,12 @@ RUN_GLOBS = ("planning/*/rollouts.parquet", "planning/*/redeploy_*.parquet")
 
 PLANNING_GLOBS = ("summary.md", "provenance.md", *RUN_GLOBS, "planning/summary/*")
 """Every rollout's record (≈ 0.3 MB a run), the planning tables, figures and provenance. Not
-the per-step traces (best paths, validation runs: tens of MB a run at 0.5 ms), the recordings or
-the report, which the workflow remakes."""
+the per-step traces (best paths, validation runs: 1–19 MB a run), the recordings or the report,
+which the workflow remakes."""
+
+VALIDATION_GLOBS = ("validation/comparison.*", "validation/variants.*", "validation/fig*")
+"""The validation's tables and figures. Not its traces, nor the aligned curves (68 MB) the
+figures are drawn from: data a 16-minute re-run makes again (docs/workflow.md, "Output sizes")."""
 
 PUBLISHED_STUDIES = {
     study.name: study
@@ -86,7 +90,7 @@ PUBLISHED_STUDIES = {
             "default",
             ("config/config.yaml",),
             "default study",
-            (*PLANNING_GLOBS, "validation/*.*", "whitney/*.parquet"),
+            (*PLANNING_GLOBS, *VALIDATION_GLOBS, "whitney/*.parquet"),
         ),
         # The paper's 11 starts on seed 0; the default's seed-0 runs are among its 33, draw
         # for draw. Each run is redeployed under the five model errors too.

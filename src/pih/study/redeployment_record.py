@@ -19,14 +19,14 @@ def redeployment_fields(
     N(0, start_std_m²), on its scene or under ``model_error`` (``{}``, or its ``name`` and dotted
     scene ``settings``): the sweep point, seeds and seed key the run drew with, the real scene
     and the redeployment's planner config."""
-    settings = model_error.get("settings", {})
+    scene = deployment_scene(run, model_error.get("settings", {}))
     return {
         "point": run.record["sweep_point"],
         "seeds": run.record["seeds"],
         "config": {
-            "scene": to_mapping(deployment_scene(run, settings)),
+            "scene": to_mapping(scene),
             "planner": to_mapping(run.redeployment_config(start_std_m)),
         },
-        "simulator": run.record["simulator"],
+        "simulator": scene.simulator_settings(),
         "extra": {"seed_key": run.record["seed_key"], "model_error": dict(model_error)},
     }
