@@ -258,19 +258,27 @@ def _chattering_trace(offset_m: float, seed: int) -> Trace:
     )
 
 
+@pytest.mark.parametrize("seed", [0, 3])
 @pytest.mark.parametrize("final_depth_m", [0.03, 0.0004])
-def test_a_stored_validation_trace_compares_as_the_whole_trace(tmp_path, final_depth_m):
-    """The trace file keeps every step up to the deepest depth the comparison reads and the
-    envelope past it: the metrics and aligned curves from the file equal the whole trace's,
-    value for value, under both alignments, also for a final depth inside the chamfer-peak
-    window; the spike past the window and the deepest depth survive."""
+def test_a_stored_validation_trace_compares_as_the_whole_trace(tmp_path, final_depth_m, seed):
+    """The trace file keeps every step until the tip first passes the chamfer height and the
+    final depth under each alignment, and the envelope past them: the metrics and aligned
+    window from the file equal the whole trace's, value for value, under both alignments, also
+    for a final depth inside the chamfer-peak window; the spikes and the deepest depth survive."""
     from pih.records.outputs import read_trace, write_trace
     from pih.validation.experiment import ALIGNMENTS, STORED_COLUMNS, stored_samples
 
     config = ValidationConfig(final_depth_m=final_depth_m)
-    trace = _chattering_trace(0.001, seed=3)
+    trace = _chattering_trace(0.001, seed=seed)
     kept = stored_samples(trace, SCENE, 0.001, config)
     assert len(kept) < 0.9 * len(trace)
+    depth = trace.insertion_depth_m
+    z_c = whitney.chamfer_height(whitney_params(SCENE, 0.001))
+    shifts = [
+        compare(trace, SCENE, 0.001, config, a).metrics["alignment_shift_m"] for a in ALIGNMENTS
+    ]
+    for passed in (depth > z_c, *(depth + shift > final_depth_m for shift in shifts)):
+        assert set(range(int(np.argmax(passed)) + 1)) <= set(kept)
     write_trace(trace, tmp_path / "trace.parquet", {"run_id": "t"}, kept, STORED_COLUMNS)
     stored = read_trace(tmp_path / "trace.parquet")
     assert np.isnan(stored.spring_force).all() and (stored.contact_patches == -1).all()

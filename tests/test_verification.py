@@ -428,6 +428,8 @@ def test_a_null_is_compared_by_its_place_not_by_the_bytes_behind_it():
     assert column_digests(table(7.0)) == column_digests(table(-2.0))
     moved = pa.table({"cost": pa.array([1.0, 3.0, None])})
     assert column_digests(moved) != column_digests(table(7.0))
+    nested = [pa.table({"w": pa.array([[1.0, None]] * 2)}) for _ in range(2)]
+    assert column_digests(nested[0]) == column_digests(nested[1])
 
 
 def test_an_older_versions_best_paths_are_thinned_alike_before_they_are_compared(tmp_path):
@@ -439,16 +441,17 @@ def test_an_older_versions_best_paths_are_thinned_alike_before_they_are_compared
     from pih.records.sampling import path_samples
 
     units = {"iteration": ("1", "i"), "time_s": ("s", "t"), "robot_x_m": ("m", "x")}
-    steps = [np.arange(0, 45) * 0.0005, np.arange(0, 33) * 0.0005]  # a path that stopped early
+    # The first path stopped after 5 steps (a diverged best rollout), the third early too.
+    steps = [np.arange(0, n) * 0.0005 for n in (5, 45, 33)]
     full = pd.DataFrame(
         {
-            "iteration": np.repeat([1, 2], [len(t) for t in steps]),
+            "iteration": np.repeat([1, 2, 3], [len(t) for t in steps]),
             "time_s": np.concatenate(steps),
-            "robot_x_m": np.sin(np.arange(78.0)),
+            "robot_x_m": np.sin(np.arange(83.0)),
         }
     )
     thinned = full[path_samples(full["iteration"].to_numpy(), 20)].reset_index(drop=True)
-    assert list(thinned["time_s"].round(4)) == [0, 0.01, 0.02, 0.022, 0, 0.01, 0.016]
+    assert list(thinned["time_s"].round(4)) == [0, 0.002, 0, 0.01, 0.02, 0.022, 0, 0.01, 0.016]
     old, new = tmp_path / "old.parquet", tmp_path / "new.parquet"
     write_table(full, old, record("plan"), units)
     outputs = {"best_paths.parquet": old}, {"best_paths.parquet": new}

@@ -314,7 +314,7 @@ def validation_hash_at(commit: str) -> str | None:
 
     def git(*args: str) -> subprocess.CompletedProcess[str]:
         return subprocess.run(
-            ["git", *args], cwd=REPOSITORY, capture_output=True, text=True, timeout=30
+            ["git", *args], cwd=REPOSITORY, capture_output=True, text=True, timeout=30, check=False
         )
 
     def source(name: str) -> str:

@@ -18,6 +18,7 @@ import concurrent.futures
 import hashlib
 import io
 import json
+import math
 import os
 import subprocess
 import sys
@@ -29,6 +30,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -277,7 +279,9 @@ def column_digests(source: Path | pa.Table) -> dict[str, str]:
     table = table.combine_chunks()
     bare = pa.schema([field.remove_metadata() for field in table.schema])
     columns = [
-        pa.array(column.to_pylist(), type=column.type) if column.null_count else column
+        pa.array(column.to_pylist(), type=column.type)
+        if column.null_count or pa.types.is_nested(column.type)
+        else column
         for column in table.columns
     ]
     table = pa.Table.from_arrays(columns, schema=bare)
@@ -292,15 +296,20 @@ def column_digests(source: Path | pa.Table) -> dict[str, str]:
 
 
 def thinned_like(old: pa.Table, new: pa.Table, path_column: str) -> pa.Table:
-    """``old``'s paths at the stride of ``new``'s (the ratio of their first paths' first time
-    steps); ``old`` itself when it is not the finer."""
+    """``old``'s paths at the stride of ``new``'s (the ratio of the two files' longest time step
+    within a path: a path's last step may come sooner); ``old`` itself when it is not the
+    finer."""
     from pih.records.sampling import path_samples
 
-    if old.num_rows <= new.num_rows or min(old.num_rows, new.num_rows) < 2:
+    def step(table: pa.Table) -> float:
+        paths, time_s = (table.column(c).to_numpy() for c in (path_column, "time_s"))
+        within = np.diff(time_s)[paths[1:] == paths[:-1]]
+        return float(within.max()) if within.size else math.nan
+
+    ratio = step(new) / step(old)
+    if old.num_rows <= new.num_rows or not ratio > 1:
         return old
-    old_t, new_t = (table.column("time_s").to_numpy() for table in (old, new))
-    every = round((new_t[1] - new_t[0]) / (old_t[1] - old_t[0]))
-    return old.filter(pa.array(path_samples(old.column(path_column).to_numpy(), every)))
+    return old.filter(pa.array(path_samples(old.column(path_column).to_numpy(), round(ratio))))
 
 
 def compare_outputs(old: Mapping[str, Path], new: Mapping[str, Path]) -> tuple[str, list[str]]:

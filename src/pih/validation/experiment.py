@@ -162,22 +162,23 @@ def stored_samples(
     trace: Trace, scene: SceneConfig, offset_m: float, config: ValidationConfig
 ) -> NDArray[np.intp]:
     """The steps a validation trace file keeps: every one until the tip first passes the deepest
-    depth any comparison reads (the final depth under either alignment, and the chamfer window
-    where the first peak is looked for), then each 1/:data:`STORED_BIN_RATE_HZ` s bin's first,
-    lowest and highest F_x, F_z, θ and depth, and the last. :func:`compare` of the kept steps is
-    that of the whole trace, value for value; a trace without chamfer contact is kept whole."""
+    depth any comparison reads (the final depth under either alignment, and the chamfer height,
+    up to which the first peak is looked for), then each 1/:data:`STORED_BIN_RATE_HZ` s bin's
+    first, lowest and highest F_x, F_z, θ and depth, and the last. :func:`compare`'s metrics and
+    aligned window from the kept steps are the whole trace's, value for value (its whole
+    simulated curve is thinned past them); a trace without chamfer contact is kept whole."""
     params = whitney_params(scene, offset_m)
-    z_c = whitney.chamfer_height(params)
     sim = to_whitney_frame(trace, scene.hole.x_m)
     try:
-        shifts = (
-            -z_c - first_contact_depth(sim),
-            -ENTRANCE_SIDE_M - first_peak_depth(sim, params),
-        )
+        shifts = [alignment_shift(sim, params, alignment) for alignment in ALIGNMENTS]
     except ValueError:
         return np.arange(len(trace))
-    deepest = max(z_c, *(config.final_depth_m - shift for shift in shifts))
-    passed = np.flatnonzero(trace.insertion_depth_m > deepest)
+    depth = trace.insertion_depth_m
+    # The negation of compare()'s window test, written alike, so no rounding tells them apart.
+    beyond = depth > whitney.chamfer_height(params)
+    for shift in shifts:
+        beyond &= depth + shift > config.final_depth_m
+    passed = np.flatnonzero(beyond)
     if passed.size == 0:
         return np.arange(len(trace))
     cut = int(passed[0]) + 1
@@ -186,10 +187,22 @@ def stored_samples(
         trace.contact_force[cut:, 0],
         trace.contact_force[cut:, 1],
         trace.q_peg[cut:, 2],
-        trace.insertion_depth_m[cut:],
+        depth[cut:],
     )
     tail = [envelope_indices(time_s, values, STORED_BIN_RATE_HZ, 0.0) for values in series]
     return np.concatenate([np.arange(cut), cut + np.unique(np.concatenate(tail))])
+
+
+def alignment_shift(sim: pd.DataFrame, params: whitney.WhitneyParams, alignment: str) -> float:
+    """The depth shift that aligns the simulated curve ``sim`` (:func:`to_whitney_frame`) under
+    ``alignment`` (:data:`ALIGNMENTS`)."""
+    if alignment == "chamfer_start":
+        return -whitney.chamfer_height(params) - first_contact_depth(sim)
+    if alignment == "first_peak":
+        # Whitney's chamfer peak is at l → 0⁻: put the simulated peak just before the entrance,
+        # not on l = 0 itself, where the theory has already jumped to its one-point value.
+        return -ENTRANCE_SIDE_M - first_peak_depth(sim, params)
+    raise ValueError(f"alignment must be one of {ALIGNMENTS}, got {alignment!r}")
 
 
 @dataclass(frozen=True)
@@ -213,14 +226,7 @@ def compare(
     params = whitney_params(scene, offset_m)
     sim = to_whitney_frame(trace, scene.hole.x_m)
     z_c = whitney.chamfer_height(params)
-    if alignment == "chamfer_start":
-        shift = -z_c - first_contact_depth(sim)
-    elif alignment == "first_peak":
-        # Whitney's chamfer peak is at l → 0⁻: put the simulated peak just before the entrance,
-        # not on l = 0 itself, where the theory has already jumped to its one-point value.
-        shift = -ENTRANCE_SIDE_M - first_peak_depth(sim, params)
-    else:
-        raise ValueError(f"alignment must be one of {ALIGNMENTS}, got {alignment!r}")
+    shift = alignment_shift(sim, params, alignment)
     sim["depth_m"] = sim["depth_m"] + shift
     window = sim[(sim["depth_m"] >= -z_c) & (sim["depth_m"] <= config.final_depth_m)].reset_index(
         drop=True
