@@ -1,5 +1,7 @@
 """The hydroelastic-vs-Whitney comparison on synthetic traces with known answers."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -227,35 +229,27 @@ def _chattering_trace(offset_m: float, seed: int) -> Trace:
     coarse = synthetic_trace(offset_m, 2e-5)
     n = 20 * len(coarse)
     rng = np.random.default_rng(seed)
-    step = np.arange(n) / 20.0
-    index = np.arange(len(coarse))
+    step, index = np.arange(n) / 20.0, np.arange(len(coarse))
 
     def fine(values):
-        return np.column_stack([np.interp(step, index, c) for c in np.atleast_2d(values.T)])
+        columns = [np.interp(step, index, c) for c in np.atleast_2d(values.T)]
+        return np.column_stack(columns) if values.ndim == 2 else columns[0]
 
-    depth = fine(coarse.insertion_depth_m)[:, 0] + rng.normal(0.0, 2e-6, n)
-    force = fine(coarse.contact_force) + rng.normal(0.0, 0.05, (n, 3))
+    arrays = {
+        field.name: fine(getattr(coarse, field.name))
+        for field in dataclasses.fields(Trace)
+        if isinstance(getattr(coarse, field.name), np.ndarray)
+    }
+    depth = arrays["insertion_depth_m"] + rng.normal(0.0, 2e-6, n)
+    force = arrays["contact_force"] + rng.normal(0.0, 0.05, (n, 3))
     force[int(0.97 * n), 1] = 100.0
     # And one inside the chamfer-peak window (depth ≤ z_c ≈ 0.98 mm) on a step that is no first
     # pass: the comparison never reads it, unless a file kept too few steps before it.
     first_pass = depth > np.maximum.accumulate(np.r_[-np.inf, depth[:-1]])
     inside = np.flatnonzero(~first_pass & (depth > 0.0007) & (depth < 0.0009))
     force[inside[len(inside) // 2], 1] = 100.0
-    q_peg = fine(coarse.q_peg)
-    zeros = np.zeros((n, 3))
-    return Trace(
-        time_s=np.arange(n) * 0.0005,
-        q_robot=fine(coarse.q_robot),
-        q_peg=q_peg,
-        q_peg_top=zeros,
-        q_peg_bottom=zeros,
-        contact_force=force,
-        contact_patches=np.ones(n, dtype=np.int64),
-        spring_force=zeros,
-        spring_energy_j=np.zeros(n),
-        insertion_depth_m=depth,
-        penetration_m=np.zeros(n),
-    )
+    arrays |= {"time_s": np.arange(n) * 0.0005, "insertion_depth_m": depth, "contact_force": force}
+    return dataclasses.replace(coarse, **arrays)
 
 
 @pytest.mark.parametrize("seed", [0, 3])
