@@ -150,6 +150,23 @@ def test_real_insertion_matches_whitney_in_shape():
     # 2 ms step, 0.18 mm late at 1 ms, where the peak is resolved more finely).
     peak = compare(trace, scene_config, 0.001, config, "first_peak").metrics
     assert abs(peak["alignment_shift_m"]) < 2e-4
+    # The steps a trace file keeps compare as the whole trace.
+    from pih.validation.experiment import stored_samples
+
+    kept = stored_samples(trace, scene_config, 0.001, config)
+    assert len(kept) < len(trace)
+    stored = dataclasses.replace(
+        trace,
+        **{
+            f.name: getattr(trace, f.name)[kept]
+            for f in dataclasses.fields(Trace)
+            if isinstance(getattr(trace, f.name), np.ndarray)
+        },
+    )
+    for alignment in ("chamfer_start", "first_peak"):
+        part = compare(stored, scene_config, 0.001, config, alignment).metrics
+        whole = compare(trace, scene_config, 0.001, config, alignment).metrics
+        assert part == pytest.approx(whole, nan_ok=True, rel=0, abs=0)
 
 
 def test_forces_orders_of_magnitude_off_the_theory_are_flagged_not_ok():
