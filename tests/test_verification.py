@@ -156,9 +156,9 @@ def test_the_validation_hash_covers_what_the_experiment_computes_with():
 
 
 def test_a_changed_validation_statement_stales_the_published_validation():
-    """The published validation predates its hash: it is judged by the validation modules at the
-    commit that made it, read from git, which equal today's; one changed statement in the
-    experiment gives another hash and stales it, a reworded docstring does not."""
+    """The published validation is judged by the validation hash it records, today's; one
+    changed statement in the experiment gives another hash and stales it, a reworded docstring
+    does not."""
     published = ROOT / PUBLISHED_DIR
     sections = expected_validation((str(ROOT / "config" / "config.yaml"),))
     assert validation_stale_reasons(published, sections) == []
@@ -460,3 +460,13 @@ def test_an_older_versions_best_paths_are_thinned_alike_before_they_are_compared
     for changed in (thinned.drop(index=2), pd.concat([thinned, thinned.tail(1)])):
         write_table(changed.reset_index(drop=True), new, record("plan"), units)
         assert compare_outputs(*outputs)[1] == ["best_paths.parquet: column iteration differs"]
+
+
+def test_a_validation_table_older_than_its_hash_is_judged_by_the_modules_its_commit_had():
+    """A commit before records.sampling joined the validation modules reads it as empty (not
+    as a commit the history lacks); a commit the history does not hold gives no hash."""
+    from pih.publishing.published import validation_hash_at
+
+    before = validation_hash_at("0b3a0c2")
+    assert before is not None and before != validation_code_hash()
+    assert validation_hash_at("f" * 40) is None

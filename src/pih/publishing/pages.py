@@ -32,8 +32,14 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
     record = read_provenance(tables / "success.parquet")
     drake = record.get("packages", {}).get("drake", "?")
     made = f"code `{record['code_version']}`, Drake {drake}, {record['created_utc'][:10]}"
-    if study.in_parts:
-        made = f"runs made at {_sources(published_runs(published, study)[1])}; tables at {made}"
+    files = published.glob("planning/*/rollouts.parquet")
+    runs = published_runs(published, study)[1] if study.in_parts else {str(f): f for f in files}
+    # Runs made at other code than the tables (a study in parts; a study whose tables were
+    # re-made) say where they were made.
+    if study.in_parts or any(
+        read_provenance(path)["code_version"] != record["code_version"] for path in runs.values()
+    ):
+        made = f"runs made at {_sources(runs)}; tables at {made}"
     source = f"The published {study.title} (`{study.directory}/`, {made})"
     for name in study.pools:
         pooled = PUBLISHED_STUDIES[name]
