@@ -279,6 +279,7 @@ def test_insertion_series_are_decimated_keeping_every_peak_and_the_tail(tmp_path
     [
         ({"series_rate_hz": 0.0}, r"recordings\.series_rate_hz: 0\.0"),
         ({"frame_rate_hz": float("nan")}, r"recordings\.frame_rate_hz: nan"),
+        ({"validation_frame_rate_hz": -5.0}, r"recordings\.validation_frame_rate_hz: -5\.0"),
         ({"full_rate_tail_s": -1.0}, r"recordings\.full_rate_tail_s: -1\.0"),
         ({"frame_rate": 10.0}, r"recordings: unknown key\(s\) \['frame_rate'\]"),
     ],

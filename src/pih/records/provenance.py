@@ -157,7 +157,8 @@ ROLLOUT_MODULES = (
 
 # The modules whose code decides the validation's numbers (the experiment, its config, the scene
 # and contact, Whitney's theory, which steps its trace files keep): the published validation is
-# stale when their hash no longer matches its record. tests/test_published.py checks that it covers what the experiment imports.
+# stale when their hash no longer matches its record. tests/test_published.py checks that it
+# covers what the experiment imports.
 VALIDATION_MODULES = (
     "validation.experiment",
     "validation.config",
