@@ -96,7 +96,12 @@ PUBLISHED_STUDIES = {
         # for draw. Each run is redeployed under the five model errors too.
         PublishedStudy(
             "paper",
-            ("config/config.yaml", "config/paper.yaml", "config/model_error.yaml"),
+            (
+                "config/config.yaml",
+                "config/paper.yaml",
+                "config/model_error.yaml",
+                "config/ladder.yaml",
+            ),
             "paper-scale study",
             RUN_GLOBS,
             page="docs/planner.md",
@@ -107,7 +112,12 @@ PUBLISHED_STUDIES = {
         # paper-scale study's: README's headline, all five methods.
         PublishedStudy(
             "stable_goal",
-            ("config/config.yaml", "config/stable_goal.yaml"),
+            (
+                "config/config.yaml",
+                "config/stable_goal.yaml",
+                "config/model_error.yaml",
+                "config/ladder.yaml",
+            ),
             "stable-goal study",
             RUN_GLOBS,
             in_parts=True,
@@ -117,7 +127,7 @@ PUBLISHED_STUDIES = {
         # by seed key with the sim-to-real study's runs on the real hole.
         PublishedStudy(
             "contact_model",
-            ("config/config.yaml", "config/contact_model.yaml"),
+            ("config/config.yaml", "config/contact_model.yaml", "config/ladder.yaml"),
             "contact-model study",
             RUN_GLOBS,
             page="docs/contact_model.md",
@@ -128,7 +138,7 @@ PUBLISHED_STUDIES = {
         # mm, draw for draw.
         PublishedStudy(
             "sim_to_real",
-            ("config/config.yaml", "config/sim_to_real.yaml"),
+            ("config/config.yaml", "config/sim_to_real.yaml", "config/ladder.yaml"),
             "sim-to-real study",
             RUN_GLOBS,
             page="docs/sim_to_real.md",
