@@ -383,3 +383,127 @@ def test_the_pairs_at_a_replays_step_count_only_when_both_trees_hold_replays(tmp
     pd.DataFrame({"time_step_s": [6.25e-5]}).to_parquet(trees["fresh"] / TIME_STEP)
     checks = conclusion_checks(trees["published"], trees["fresh"])
     assert [check.holds for check in checks] == [True, False]
+
+
+CONTACT_MODEL = ROOT / "published" / "contact_model"
+TWINS_FAIL = (
+    "FAILS: planning/summary/training_model.parquet: method=bilevel/deepest_explored, "
+    "training_model=point, 1e+07 N/m, start_std_m=0.001: sign (pairs better/worse) 0 (0/0) -> "
+    "- (0/1)"
+)
+
+
+def contact_model_runs(new):
+    """The published contact-model study's 48 planning runs (no tables) under ``new``."""
+    for run in sorted((CONTACT_MODEL / "planning").glob("start_x_m~*")):
+        shutil.copytree(run, new / "planning" / run.name)
+    return new
+
+
+def fail_deployment(redeployment):
+    """Every trial of a redeployment file turned to a failure, its provenance kept."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(redeployment)
+    column = table.schema.get_field_index("success")
+    failed = pa.array([False] * len(table))
+    pq.write_table(table.set_column(column, table.schema.field(column), failed), redeployment)
+
+
+def test_the_published_contact_model_study_reproduces_its_training_model_conclusions(tmp_path):
+    """A copy of the published contact-model study (its tables pooled with the sim-to-real
+    study's runs, read as they are): the same data, and every training-model conclusion checked
+    and holding."""
+    new = copy(CONTACT_MODEL, tmp_path / "new")
+    result = compare(CONTACT_MODEL, new)
+    assert result.scope == "" and result.data_identical and result.conclusions_hold
+    trained = [c for c in result.checks if "training_model.parquet" in c.where]
+    # 9 real-scene successes, 6 predictions and 6 signs against the real-scene-trained twins.
+    assert len(trained) == 9 + 6 + 6
+    assert sum(c.what.startswith("sign (pairs better/worse) -") for c in trained) == 2
+
+
+def test_a_point_trained_run_that_no_longer_deploys_changes_a_training_model_conclusion(
+    tmp_path, capsys
+):
+    """One point-trained bilevel run's deployments from offset starts all fail, the study's
+    tables remade as published (pooled with the sim-to-real study's runs): it deploys less often
+    than its twin trained on the real scene's model, where none did, and compare says so."""
+    from pih.publishing.published import PUBLISHED_STUDIES, pooled_planning, remake_tables
+
+    new = copy(CONTACT_MODEL, tmp_path / "new")
+    run = (
+        "start_x_m~-0.04_goal~deepest_explored_contact_model~point_point_stiffness_n_per_m~"
+        "10000000.0_seed~1"
+    )
+    fail_deployment(new / "planning" / run / "redeploy_start_std_m~0.001.parquet")
+    remake_tables(new / "planning", pooled_planning(ROOT, PUBLISHED_STUDIES["contact_model"]))
+
+    assert main(["compare", str(CONTACT_MODEL), str(new)]) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert f"planning/{run}/redeploy_start_std_m~0.001.parquet: data: one table -> another" in out
+    # Its rate, 7 of 8 runs, stays inside the interval and its prediction is unchanged; the sign
+    # against its twins does not hold (nor some of the paired table's).
+    failed = [line for line in out if line.startswith("FAILS")]
+    assert [line for line in failed if "training_model.parquet" in line] == [TWINS_FAIL]
+    assert "NOT reproduced" in out[-1]
+
+
+def test_a_fresh_contact_model_run_is_pooled_with_the_sim_to_real_study(tmp_path, capsys):
+    """A fresh contact-model run holds no twins trained on the real scene's model: its own
+    tables pair nothing. Compare remakes them pooled with the published sim-to-real study's
+    runs, as the published study's are, and the training-model conclusions hold (here: the
+    published runs, so the data too)."""
+    from pih.analysis.pooling import find_outputs, pool
+    from pih.publishing.compare import TRAINING_MODEL, conclusion_checks
+    from pih.reporting.planning_summary import write_pooled_summary
+
+    new = contact_model_runs(tmp_path / "new")
+    write_pooled_summary(pool(*find_outputs([new / "planning"])), new / "planning" / "summary")
+    assert (pd.read_parquet(new / TRAINING_MODEL)["pairs"] == 0).all()
+    assert not all(c.holds for c in conclusion_checks(CONTACT_MODEL, new))  # read as it is
+
+    assert main(["compare", str(CONTACT_MODEL), str(new)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == (
+        f"scope: {new} is a run of the contact-model study: the tables remade here pool the "
+        "sim-to-real study's runs (published/sim_to_real), as the study's do"
+    )
+    assert out[1].startswith("data: 0 of ") and out[1].endswith(": the same (within --rtol 1e-09)")
+    assert out[-1].startswith("conclusions: 168 of 168 hold")
+
+
+def test_a_training_model_without_twins_keeps_no_sign(tmp_path):
+    """Per training model, what is checked: the real-scene success of every row; the prediction
+    of a row trained in another model (where there is one); the sign against the twins where OLD
+    has pairs, which a row without twins (0 of 0 pairs: nothing paired) does not keep."""
+    from pih.analysis.training_model import REAL_SCENE
+    from pih.publishing.compare import TRAINING_MODEL, conclusion_checks
+
+    def table(root, pairs):
+        same = {"method": "one_level", "start_std_m": 0.001, "runs": 8, "better": 0, "worse": 0}
+        same |= {"deploy_success_rate": 1.0, "deploy_ci_low": 0.68, "deploy_ci_high": 1.0}
+        same |= {"predicted_ci_low": 0.68, "predicted_ci_high": 1.0}
+        rows = [
+            {"training_model": REAL_SCENE, "predicted_success_rate": 1.0, "pairs": 0, "tied": 0},
+            {"training_model": "point, 1e+07 N/m", "predicted_success_rate": 1.0},
+            {"training_model": "point, 1e+06 N/m", "predicted_success_rate": float("nan")},
+        ]
+        twinned = [rows[0], *({"pairs": pairs, "tied": pairs} | r for r in rows[1:])]
+        (root / TRAINING_MODEL).parent.mkdir(parents=True)
+        pd.DataFrame([same | r for r in twinned]).to_parquet(root / TRAINING_MODEL)
+        return root
+
+    old, twinless = table(tmp_path / "old", 8), table(tmp_path / "new", 0)
+    assert [c.what for c in conclusion_checks(old, old)] == [
+        "deployment success 1 inside [0.68, 1]",
+        "deployment success 1 inside [0.68, 1]",
+        "deployment success 1 inside [0.68, 1]",
+        "predicted success 1 inside [0.68, 1]",
+        "sign (pairs better/worse) 0 (0/0) -> 0 (0/0)",
+        "sign (pairs better/worse) 0 (0/0) -> 0 (0/0)",
+    ]
+    assert all(c.holds for c in conclusion_checks(old, old))
+    failed = [c.what for c in conclusion_checks(old, twinless) if not c.holds]
+    assert failed == ["sign (pairs better/worse) 0 (0/0) -> no pairs"] * 2

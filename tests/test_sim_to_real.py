@@ -312,3 +312,33 @@ def test_offset_start_pairs_are_split_by_the_simulator_mode_and_lead_the_summary
         ["planner.simulated_hole", "sensed_per_run", 0],
         ["planner.simulated_hole", "true_hole", 2],
     ]
+
+
+def test_expected_success_at_the_sensings_own_rate():
+    """Runs that inserted sensed nearer than those that did not: the threshold lies between, and
+    the expected success weights the close runs by how often a sensing lands that close."""
+    from scipy import stats
+
+    from pih.analysis.sensing import close_probability, expected_at_sensing_rate
+
+    # N(5 mm, (5 mm)^2) within 1.4 mm of 0: the issue's 13.6 %.
+    assert close_probability(0.0014, 0.005, 0.005) == pytest.approx(
+        stats.norm.cdf(-0.72) - stats.norm.cdf(-1.28)
+    )
+    assert close_probability(0.001, 0.0, 0.0) == 1.0 and close_probability(0.001, 0.002, 0.0) == 0
+    runs = pd.DataFrame(
+        {
+            "method": ["bilevel"] * 4 + ["one_level"] * 3,
+            "first_sensing_error_m": [0.001, 0.0005, 0.003, 0.006, 0.001, 0.003, 0.006],
+            "offset_deploy_success_rate": [1.0, 0.8, 0.0, 0.1, 0.2, 0.6, 0.3],
+        }
+    )
+    rate = expected_at_sensing_rate(runs, 0.005, 0.005).set_index("method")
+    bilevel = rate.loc["bilevel"]
+    assert (bilevel["farthest_close_m"], bilevel["nearest_far_m"]) == (0.001, 0.003)
+    low, high = close_probability(0.001, 0.005, 0.005), close_probability(0.003, 0.005, 0.005)
+    assert bilevel["expected_low"] == pytest.approx(low * 0.9 + (1 - low) * 0.05)
+    assert bilevel["expected_high"] == pytest.approx(high * 0.9 + (1 - high) * 0.05)
+    assert bilevel["measured"] == pytest.approx(0.475)
+    # One-level's outcome does not split by distance (its close run sensed farthest): no rate.
+    assert np.isnan(rate.loc["one_level", "expected_low"])

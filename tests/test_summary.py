@@ -177,7 +177,16 @@ def test_the_headline_at_a_finer_step_stands_beside_the_runs_own():
     # The pairs at each step, a row a pair: the runs' own from the offset starts' rows, the
     # replayed step's from its pooled rows; a pair whose runs were not all replayed is a dash.
     pair = {"pairs": 10, "better": 9, "worse": 1, "tied": 0, "sign_test_p": 0.0215}
+    pair |= {
+        "tied_at_ceiling": 0,
+        "mean_difference": 0.4,
+        "difference_ci_low": 0.2,
+        "difference_ci_high": 0.6,
+        "least_possible_p": 0.00195,
+        "detectable_difference": 0.3,
+    }
     fewer = {**pair, "pairs": 6, "better": 6, "worse": 0, "sign_test_p": 0.0312}
+    fewer |= {"least_possible_p": 0.0312, "mean_difference": -0.05, "difference_ci_low": -0.1}
     paired = pd.DataFrame(
         [
             {"method": "a", "versus": versus, "dimension": "time_step_s", "level": level, **p}
@@ -201,13 +210,18 @@ def test_the_headline_at_a_finer_step_stands_beside_the_runs_own():
         "versus",
         "pairs",
         "at 0.5 ms: better / worse / tied",
-        "p at 0.5 ms",
+        "difference at 0.5 ms (95 % CI)",
+        "p at 0.5 ms (least possible)",
+        "tied at 10 of 10 at 0.5 ms",
+        "detectable at 0.5 ms",
         "at 0.0625 ms: better / worse / tied",
-        "p at 0.0625 ms",
+        "difference at 0.0625 ms (95 % CI)",
+        "p at 0.0625 ms (least possible)",
     ]
+    at_both = ["9 / 1 / 0", "+0.40 (+0.20 to +0.60)", "0.0215 (0.00195)"]
     assert pairs.values.tolist() == [
-        ["a", "one_level", 10, "9 / 1 / 0", 0.0215, "8 / 1 / 1", 0.0215],
-        ["a", "b", 10, "9 / 1 / 0", 0.0215, "—", "—"],
+        ["a", "one_level", 10, *at_both, 0, "0.30", "8 / 1 / 1", *at_both[1:]],
+        ["a", "b", 10, *at_both, 0, "0.30", "—", "—", "—"],
     ]
     # With a compared dimension (its levels do not pool): a row a pair and level, each step's
     # counts from the time-step rows of that level.
@@ -232,9 +246,10 @@ def test_the_headline_at_a_finer_step_stands_beside_the_runs_own():
     )
     pairs = step_pairs(per_level, _robustness())
     assert pairs.columns.tolist()[:4] == ["level", "method", "versus", "pairs"]
+    six = ["6 / 0 / 0", "-0.05 (-0.10 to +0.60)", "0.0312 (0.0312)"]
     assert pairs.drop(columns=["method", "versus"]).values.tolist() == [
-        ["friction = 0.3", 10, "9 / 1 / 0", 0.0215, "8 / 1 / 1", 0.0215],
-        ["friction = 0.5", 6, "6 / 0 / 0", 0.0312, "6 / 0 / 0", 0.0312],
+        ["friction = 0.3", 10, *at_both, 0, "0.30", "8 / 1 / 1", *at_both[1:]],
+        ["friction = 0.5", 6, *six, 0, "0.30", *six],
     ]
 
 
@@ -252,6 +267,11 @@ def test_summary_names_the_code_version_and_links_the_tables():
             "tied": [0, 0],
             "mean_difference": [0.89, 0.9],
             "sign_test_p": [0.000488, 0.03125],
+            "tied_at_ceiling": [0, 0],
+            "difference_ci_low": [0.8, 0.8],
+            "difference_ci_high": [0.95, 0.95],
+            "least_possible_p": [0.000488, 0.03125],
+            "detectable_difference": [0.1, 0.2],
         }
     )
     paired = pd.concat(
@@ -277,9 +297,15 @@ def test_summary_names_the_code_version_and_links_the_tables():
         )
 
     text = summary({"success": "planning/s.md"}, study)
-    assert "| bilevel/deepest_explored | one_level | 12 | 7 | 2 | 3 | 0.89 | 0.18 |" in text
-    assert "| bilevel/deepest_explored | one_level | 12 | 12 | 0 | 0 | 0.89 | 0.000488 |" in text
-    assert text.index("| 7 | 2 | 3 |") < text.index("| 12 | 0 | 0 |")  # offset starts first
+    offset = (
+        "| bilevel/deepest_explored | one_level | 12 | 7 / 2 / 3 | 0 | +0.89 (+0.80 to +0.95) |"
+    )
+    assert f"{offset} 0.18 (0.000488) | 0.10 |" in text
+    nominal = (
+        "| bilevel/deepest_explored | one_level | 12 | 12 / 0 / 0 | 0 | +0.89 (+0.80 to +0.95) |"
+    )
+    assert nominal in text
+    assert text.index("| 7 / 2 / 3 |") < text.index("| 12 / 0 / 0 |")  # offset starts first
     assert "0.03125" not in text  # only the overall comparison
     assert "`abc123`" in text
     assert "`config/config.yaml`, `config/smoke.yaml`; budget 3 iterations × 4 rollouts" in text

@@ -18,7 +18,7 @@ from pih.analysis.run_summary import (
     level_columns,
     split_keys,
 )
-from pih.analysis.statistics import pair_counts, rate_over_runs
+from pih.analysis.statistics import PAIR_STATISTICS_COLUMNS, pair_counts, rate_over_runs
 from pih.analysis.training_model import simulator_keys, training_model_table
 from pih.study.points import VARIANT_KEY
 
@@ -58,8 +58,20 @@ _LEVEL_COLUMNS = {
     "dimension": ("", "sweep dimension the row is split by ('all': not split)"),
     "level": ("", "level of that dimension"),
 }
+ALL_RUNS = "all"
+"""The ``pooled`` of a row that pools every run of its level (:func:`balanced_cells`)."""
+POOLED_COLUMN: dict[str, tuple[str, str]] = {
+    "pooled": (
+        "",
+        (
+            "which runs of its level the row pools: all, or only the cells of the other compared "
+            "dimensions that every level of its dimension ran (docs/planner.md, Pooling studies)"
+        ),
+    ),
+}
 BAND_COLUMNS: dict[str, tuple[str, str]] = {
     **_LEVEL_COLUMNS,
+    **POOLED_COLUMN,
     "iteration": ("1", "iteration"),
     "mean": ("1", "mean over runs of the best J_inn"),
     "std": ("1", "standard deviation over runs"),
@@ -69,6 +81,7 @@ BAND_COLUMNS: dict[str, tuple[str, str]] = {
 }
 SUCCESS_COLUMNS: dict[str, tuple[str, str]] = {
     **_LEVEL_COLUMNS,
+    **POOLED_COLUMN,
     "runs": ("1", "independent planning runs"),
     "deploy_success_rate": (
         "1",
@@ -288,15 +301,63 @@ def _with_model_error(deployments: pd.DataFrame) -> pd.DataFrame:
 
 def _by_dimension(frame: pd.DataFrame, sweep_keys: list[str], table) -> pd.DataFrame:
     """``table(part)`` per method overall and per method × level of every other dimension that
-    has more than one level (a single level's rows would repeat the overall ones)."""
-    parts = [table(frame).assign(dimension="all", level="all")]
+    has more than one level (a single level's rows would repeat the overall ones), a method's
+    runs at each level kept to the cells every level ran (:func:`balanced_cells`; column
+    ``pooled`` says which)."""
+    parts = [table(frame).assign(dimension="all", level="all", pooled=ALL_RUNS)]
     for key in split_keys(sweep_keys):
         if frame[key].nunique() < 2:
             continue
-        parts += [
-            table(part).assign(dimension=key, level=level) for level, part in frame.groupby(key)
-        ]
+        kept = {m: balanced_cells(runs, key, sweep_keys) for m, runs in frame.groupby("method")}
+        pooled = {method: label for method, (_, label) in kept.items()}
+        for level, part in pd.concat([runs for runs, _ in kept.values()]).groupby(key):
+            rows = table(part)
+            parts.append(rows.assign(dimension=key, level=level, pooled=rows["method"].map(pooled)))
     return pd.concat(parts, ignore_index=True)
+
+
+def crossed_keys(runs: pd.DataFrame, key: str, sweep_keys: list[str]) -> list[str]:
+    """The compared dimensions (not start, not seed) that cross ``key`` in ``runs``: neither
+    nested in it (each of their levels under one level of ``key``, as the point stiffness under
+    ``contact_model``) nor it in them (each level of ``key`` under one of theirs)."""
+    return [
+        other
+        for other in compared_keys(sweep_keys)
+        if other != key
+        and runs.groupby(other)[key].nunique().max() > 1
+        and runs.groupby(key)[other].nunique().max() > 1
+    ]
+
+
+def balanced_cells(runs: pd.DataFrame, key: str, sweep_keys: list[str]) -> tuple[pd.DataFrame, str]:
+    """One method's ``runs`` kept to the cells (joint levels of the :func:`crossed_keys`) that
+    every level of ``key`` ran, so that its levels' rows differ in ``key`` alone, and what they
+    keep in words: :data:`ALL_RUNS` when every level ran the same cells, or when no cell is
+    common to all (then says so: the rows mix designs)."""
+    crossed = crossed_keys(runs, key, sweep_keys)
+    if not crossed:
+        return runs, ALL_RUNS
+    cells = pd.MultiIndex.from_frame(runs[crossed].astype(str))
+    per_level = [set(cells[(runs[key] == level).to_numpy()]) for level in runs[key].unique()]
+    common = set.intersection(*per_level)
+    if all(level == common for level in per_level):
+        return runs, ALL_RUNS
+    if not common:
+        return runs, f"{ALL_RUNS}: no cell of {', '.join(crossed)} ran at every level"
+    return runs[cells.isin(list(common))], f"only {_cells_label(runs, crossed, common)}"
+
+
+def _cells_label(runs: pd.DataFrame, keys: list[str], cells: set[tuple]) -> str:
+    """``cells`` of ``keys`` in words: the levels kept of each key that lost some, or, when the
+    cells are not all combinations of those, each cell."""
+    kept = {key: sorted({cell[i] for cell in cells}) for i, key in enumerate(keys)}
+    if len(cells) < math.prod(len(levels) for levels in kept.values()):
+        return " or ".join(
+            "(" + ", ".join(f"{k} = {v}" for k, v in zip(keys, cell, strict=True)) + ")"
+            for cell in sorted(cells)
+        )
+    lost = [key for key in keys if len(kept[key]) < runs[key].nunique()]
+    return ", ".join(f"{key} = {' or '.join(kept[key])}" for key in lost)
 
 
 def cost_bands(runs: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
@@ -324,6 +385,7 @@ def _median_or_never(values: pd.Series, runs: int) -> float:
 
 PAIRED_COLUMNS: dict[str, tuple[str, str]] = {
     **_LEVEL_COLUMNS,
+    **POOLED_COLUMN,
     "versus": ("", "the method compared against, at the same sweep points"),
     "pairs": (
         "1",
@@ -332,11 +394,12 @@ PAIRED_COLUMNS: dict[str, tuple[str, str]] = {
     "better": ("1", "pairs where `method` deployed more often than `versus`"),
     "worse": ("1", "pairs where `method` deployed less often"),
     "tied": ("1", "pairs with equal deployment success"),
+    "tied_at_ceiling": PAIR_STATISTICS_COLUMNS["tied_at_ceiling"],
     "mean_difference": (
         "1",
         "mean over pairs of the deployment success of `method` minus that of `versus`",
     ),
-    "sign_test_p": ("1", "two-sided exact sign test over the untied pairs"),
+    **{k: v for k, v in PAIR_STATISTICS_COLUMNS.items() if k != "tied_at_ceiling"},
 }
 
 
@@ -351,12 +414,11 @@ def paired_table(summaries: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame
         wide = success["deploy_success_rate"].unstack("method")  # duplicate runs: an error
         rows = []
         for a, b in itertools.combinations(sorted(wide.columns), 2):
-            difference = (wide[a] - wide[b]).dropna()
-            if difference.empty:
-                continue
-            rows.append({"method": a, "versus": b, **pair_counts(difference)})
+            counts = pair_counts(wide[a], wide[b])
+            if counts["pairs"]:
+                rows.append({"method": a, "versus": b, **counts})
         return pd.DataFrame(
-            rows, columns=[c for c in PAIRED_COLUMNS if c not in ("dimension", "level")]
+            rows, columns=[c for c in PAIRED_COLUMNS if c not in ("dimension", "level", "pooled")]
         )
 
     paired = _by_dimension(summaries, sweep_keys, table)
@@ -445,14 +507,16 @@ def variant_pairs(summaries: pd.DataFrame, sweep_keys: list[str], reference: str
         )
         if joined.empty:
             continue
-        difference = joined["deploy_success_rate"] - joined["deploy_success_rate_reference"]
         rows.append(
             {
                 "method": method,
                 "dimension": VARIANT_KEY,
                 "level": level,
                 "versus": f"{method} at {VARIANT_KEY} {reference}",
-                **pair_counts(difference),
+                "pooled": ALL_RUNS,
+                **pair_counts(
+                    joined["deploy_success_rate"], joined["deploy_success_rate_reference"]
+                ),
             }
         )
     return pd.DataFrame(rows, columns=columns)

@@ -250,6 +250,12 @@ def pool(
         sources.append(_source(path, name[run.training], math.nan, "replay"))
     _check_replay_parts(replay_records, current_codes)
     deployments = pd.concat(deployments, ignore_index=True)
+    # The runs' own deployments (``summaries``) are on the scene they trained on.
+    if "hole_shift_m" in deployments:
+        trained = deployments["model_error"].isna()
+        deployments["hole_shift_m"] = deployments["hole_shift_m"].mask(trained, 0.0)
+    else:
+        deployments["hole_shift_m"] = 0.0
     # A training at the same std more than once (a redeployment at a recorded std) counts once:
     # deployment is deterministic given the training and the std.
     deployments = deployments.drop_duplicates(
@@ -434,9 +440,20 @@ def _deployment(
         "start_std_m": std,
         "model_error": model_error,
         "on_simulator": on_simulator(run.record["config"], model_error_settings, model_error),
+        "hole_shift_m": hole_shift(run, model_error_settings or {}),
         "deploy_success_rate": rate,
     }
     return pd.DataFrame([row])
+
+
+def hole_shift(run: RunRecord, model_error_settings: Mapping[str, Any]) -> float:
+    """How far a model error moved the real hole in x from where the run trained (0 without a
+    model error); NaN when it changed anything else too (friction, stiffness, contact)."""
+    if not model_error_settings:
+        return 0.0
+    if set(model_error_settings) != {"hole.x_m"}:
+        return math.nan
+    return float(model_error_settings["hole.x_m"]) - float(run.settings["scene.hole.x_m"])
 
 
 def _source(path: Path, run: str, std: float, role: str) -> dict[str, Any]:

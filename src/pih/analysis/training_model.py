@@ -12,7 +12,7 @@ import math
 import pandas as pd
 
 from pih.analysis.run_summary import NO_MODEL_ERROR, split_keys
-from pih.analysis.statistics import pair_counts, rate_over_runs
+from pih.analysis.statistics import PAIR_STATISTICS_COLUMNS, pair_counts, rate_over_runs
 from pih.study.points import SIMULATOR_PREFIX
 
 SIMULATED_HOLE_KEY = "planner.simulated_hole"
@@ -61,8 +61,9 @@ TRAINING_MODEL_COLUMNS: dict[str, tuple[str, str]] = {
     "better": ("1", "pairs where this training model's run deployed more often on the real scene"),
     "worse": ("1", "pairs where it deployed less often"),
     "tied": ("1", "pairs with equal deployment success"),
+    "tied_at_ceiling": PAIR_STATISTICS_COLUMNS["tied_at_ceiling"],
     "mean_difference": ("1", "mean over pairs of its success minus the twin's"),
-    "sign_test_p": ("1", "two-sided exact sign test over the untied pairs"),
+    **{k: v for k, v in PAIR_STATISTICS_COLUMNS.items() if k != "tied_at_ceiling"},
 }
 
 
@@ -115,13 +116,14 @@ def training_model_table(
         predicted_rate, predicted_low, predicted_high = rate_over_runs(part["predicted"])
         gap = (part["real"] - part["predicted"]).dropna()
         own = part["real"].droplevel("training_model")
-        difference = (own - reference.reindex(own.index)).dropna()
-        pairs = (
-            pair_counts(difference)
-            if model != REAL_SCENE and len(difference)
-            else {"pairs": 0, "better": 0, "worse": 0, "tied": 0}
-            | {"mean_difference": math.nan, "sign_test_p": math.nan}
-        )
+        pairs = pair_counts(own, reference.reindex(own.index))
+        if model == REAL_SCENE or not pairs["pairs"]:
+            pairs = {
+                column: 0
+                if column in ("pairs", "better", "worse", "tied", "tied_at_ceiling")
+                else math.nan
+                for column in pairs
+            }
         rows.append(
             {
                 "method": method,

@@ -2,28 +2,36 @@
 levels (docs/reproducibility.md):
 
 - **data**: every headline number (deployment success per method from offset starts and from
-  the training start, with intervals, the paired comparisons, Table 2–3's validation numbers)
-  and each planning run's data (the table of ``rollouts.parquet`` and its redeployments, without
-  provenance), bit-identical or within ``rtol``. Each item that differs is one line.
+  the training start, with intervals, the paired comparisons, Table 2–3's validation numbers,
+  a study of the planner's own simulator's numbers per training model) and each planning run's
+  data (the table of ``rollouts.parquet`` and its redeployments, without provenance),
+  bit-identical or within ``rtol``. Each item that differs is one line.
 - **conclusions**: each deployment success of NEW inside OLD's 95 % interval, each paired
-  comparison's sign kept, each validation r within a tolerance. This is what a run on another
-  CPU or Drake can be expected to reproduce; the physics is chaotic at the µm level.
+  comparison's sign kept, each validation r within a tolerance; per training model, its
+  simulator's prediction inside OLD's interval too and its sign against the twins trained on the
+  real scene's model kept. This is what a run on another CPU or Drake can be expected to
+  reproduce; the physics is chaotic at the µm level.
 
 When the data differ, the two trees' provenance says what differs between the machines and code
 that made them (:func:`likely_causes`). When OLD holds every planning run NEW does and more (the
 sim-to-real study against a fresh default run, a subset of its runs), OLD is read at NEW's sweep
 points only, its planning tables remade from those runs (:func:`runs_at_points`); when each holds
 runs the other lacks (the paper-scale study, seed 0 only, against a fresh default run on seeds
-0-1), both are read at the points they share (:func:`shared_points`). Runs are matched over both
-trees' sweep keys (:func:`run_directories`). No Drake, no simulation: it reads Parquet files.
+0-1), both are read at the points they share (:func:`shared_points`). When NEW is a run of a
+published study whose tables pool other published studies' runs (the contact-model study's pool
+the sim-to-real study's, its runs' twins trained on the real scene's model), NEW's tables, and
+those of any copy read at some points, are remade pooled with those studies' runs, as the
+study's are (:func:`pooling_study`). Runs are matched over both trees' sweep keys
+(:func:`run_directories`). No Drake, no simulation: it reads Parquet files.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import shutil
 import tempfile
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -32,7 +40,17 @@ import pandas as pd
 
 from pih.analysis.aggregate import ROBUSTNESS_COLUMNS
 from pih.analysis.run_summary import NO_MODEL_ERROR
-from pih.publishing.published import remake_tables, runs_by_point
+from pih.analysis.training_model import REAL_SCENE
+from pih.publishing.equivalence import REPOSITORY
+from pih.publishing.published import (
+    PUBLISHED_STUDIES,
+    PublishedStudy,
+    expected_runs,
+    pooled_planning,
+    remake_tables,
+    runs_by_point,
+    sweep_keys_of,
+)
 from pih.records.outputs import read_provenance
 from pih.records.provenance import input_sha256
 
@@ -44,6 +62,7 @@ ROBUSTNESS = "planning/summary/robustness.parquet"
 SUCCESS = "planning/summary/success.parquet"
 PAIRED = "planning/summary/paired.parquet"
 TIME_STEP = "planning/summary/time_step.parquet"
+TRAINING_MODEL = "planning/summary/training_model.parquet"
 VALIDATION = "validation/comparison.parquet"
 
 LEVELS = "<levels>"
@@ -74,6 +93,27 @@ HEADLINE_TABLES: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
         PAIRED,
         ("method", "versus", "dimension", "level"),
         ("pairs", "better", "worse", "tied", "mean_difference", "sign_test_p"),
+    ),
+    (
+        TRAINING_MODEL,
+        ("method", "training_model", "start_std_m"),
+        (
+            "runs",
+            "deploy_success_rate",
+            "deploy_ci_low",
+            "deploy_ci_high",
+            "predicted_success_rate",
+            "predicted_ci_low",
+            "predicted_ci_high",
+            "runs_mispredicted",
+            "mean_gap",
+            "pairs",
+            "better",
+            "worse",
+            "tied",
+            "mean_difference",
+            "sign_test_p",
+        ),
     ),
     (
         VALIDATION,
@@ -132,7 +172,8 @@ class Comparison:
     causes: list[str]
     scope: str = ""
     """How the trees were read when one holds runs the other lacks (:func:`runs_at_points`,
-    :func:`shared_points`); empty when whole."""
+    :func:`shared_points`) or NEW's tables were pooled with published runs
+    (:func:`pooling_study`); empty when read as they are."""
 
     @property
     def data_identical(self) -> bool:
@@ -257,45 +298,70 @@ def pools_its_runs(tree: Path) -> bool:
     return int(table.loc[table["dimension"] == "all", "runs"].sum()) == len(run_directories(tree))
 
 
-def runs_at_points(old: Path, new: Path, scratch: Path, keys: Iterable[str] = ()) -> Path | None:
+def runs_at_points(
+    old: Path, new: Path, scratch: Path, keys: Iterable[str] = (), pooled: Sequence[Path] = ()
+) -> Path | None:
     """When NEW is a whole study (:func:`pools_its_runs`) and OLD holds every planning run NEW
     does and more, or as many without tables of its own (a study published in parts, not yet
     complete): a copy under ``scratch`` of OLD restricted to NEW's sweep points (its other
-    outputs whole), with the planning tables remade from those runs as ``pih aggregate`` makes
-    them; None otherwise."""
+    outputs whole), with the planning tables remade from those runs, pooled with those under
+    ``pooled``, as ``pih aggregate`` makes them; None otherwise."""
     before, after = run_directories(old, keys), run_directories(new, keys)
     bigger = set(after) < set(before) or not (old / SUCCESS).is_file()
     if not after or not set(after) <= set(before) or not bigger or not pools_its_runs(new):
         return None
-    return _restricted(old, before, set(after), scratch / "old")
+    return _restricted(old, before, set(after), scratch / "old", pooled)
 
 
 def shared_points(
-    old: Path, new: Path, scratch: Path, keys: Iterable[str] = ()
+    old: Path, new: Path, scratch: Path, keys: Iterable[str] = (), pooled: Sequence[Path] = ()
 ) -> tuple[Path, Path] | None:
     """When NEW is a whole study (:func:`pools_its_runs`) and each tree holds planning runs the
     other lacks: copies under ``scratch`` of both, restricted to the sweep points they share
-    (:func:`_restricted`); None otherwise (no shared point, or one tree holds all the other's)."""
+    (:func:`_restricted`, their tables pooled with the runs under ``pooled``); None otherwise
+    (no shared point, or one tree holds all the other's)."""
     before, after = run_directories(old, keys), run_directories(new, keys)
     shared = set(before) & set(after)
     if not shared or shared in (set(before), set(after)) or not pools_its_runs(new):
         return None
     return (
-        _restricted(old, before, shared, scratch / "old"),
-        _restricted(new, after, shared, scratch / "new"),
+        _restricted(old, before, shared, scratch / "old", pooled),
+        _restricted(new, after, shared, scratch / "new", pooled),
     )
 
 
-def _restricted(tree: Path, runs: Mapping[str, Path], points: set[str], copy: Path) -> Path:
+def _restricted(
+    tree: Path, runs: Mapping[str, Path], points: set[str], copy: Path, pooled: Sequence[Path] = ()
+) -> Path:
     """``copy``: ``tree`` with only the planning ``runs`` at ``points`` (its other outputs
-    whole) and the planning tables remade from them as ``pih aggregate`` makes them."""
+    whole) and the planning tables remade from them, pooled with the runs under ``pooled``, as
+    ``pih aggregate`` makes them. Its files are links to ``tree``'s: a fresh run's directories
+    hold its recordings and best paths too."""
+    copy.mkdir(parents=True)
     for entry in tree.iterdir():
         if entry.name != "planning" and entry.is_dir():
-            shutil.copytree(entry, copy / entry.name)
+            (copy / entry.name).symlink_to(entry.resolve(), target_is_directory=True)
     for key in sorted(points):
-        shutil.copytree(runs[key], copy / "planning" / runs[key].name)
-    remake_tables(copy / "planning")
+        target = copy / "planning" / runs[key].name
+        shutil.copytree(runs[key].resolve(), target, copy_function=os.symlink)
+    remake_tables(copy / "planning", pooled)
     return copy
+
+
+def pooling_study(tree: Path, root: Path = REPOSITORY) -> PublishedStudy | None:
+    """The published study that ``tree``'s planning runs are a run of (each a sweep point of
+    its config files under ``root``), when its tables pool other published studies' runs
+    (:attr:`~pih.publishing.published.PublishedStudy.pools`): a fresh contact-model run, whose
+    twins trained on the real scene's model are the sim-to-real study's runs. None otherwise."""
+    for study in PUBLISHED_STUDIES.values():
+        config_files = [root / name for name in study.config_files]
+        if not study.pools or not all(path.is_file() for path in config_files):
+            continue
+        expected = expected_runs(tuple(map(str, config_files)))
+        runs = runs_by_point(tree / "planning", sweep_keys_of(expected))
+        if runs and set(runs) <= set(expected):
+            return study
+    return None
 
 
 def _same_data(a: Path, b: Path) -> bool:
@@ -325,13 +391,20 @@ def run_differences(old: Path, new: Path, keys: Iterable[str] = ()) -> Iterator[
             yield Difference(label, "data", "one table", "another")
 
 
-def _success_checks(before: dict, after: dict | None, table: str) -> Iterator[Check]:
+SUCCESSES = {"deploy": "deployment success", "predicted": "predicted success"}
+"""The success rates checked against OLD's interval, by their columns' prefix
+(``<prefix>_success_rate``, ``<prefix>_ci_low``, ``<prefix>_ci_high``)."""
+
+
+def _success_checks(
+    before: dict, after: dict | None, table: str, prefix: str = "deploy"
+) -> Iterator[Check]:
     for row, numbers in sorted(before.items()):
-        low, high = numbers["deploy_ci_low"], numbers["deploy_ci_high"]
-        rate = (after or {}).get(row, {}).get("deploy_success_rate")
+        low, high = numbers[f"{prefix}_ci_low"], numbers[f"{prefix}_ci_high"]
+        rate = (after or {}).get(row, {}).get(f"{prefix}_success_rate")
         inside = rate is not None and low - 1e-12 <= rate <= high + 1e-12
         shown = "missing" if rate is None else f"{rate:.3g}"
-        what = f"deployment success {shown} inside [{low:.3g}, {high:.3g}]"
+        what = f"{SUCCESSES[prefix]} {shown} inside [{low:.3g}, {high:.3g}]"
         yield Check(f"{table}: {row}", what, inside)
 
 
@@ -342,13 +415,37 @@ def _sign(numbers: Mapping[str, Any]) -> int:
 def _signed(numbers: Mapping[str, Any] | None) -> str:
     if numbers is None:
         return "missing"
+    if not numbers["pairs"]:
+        return "no pairs"
     return f"{'0+-'[_sign(numbers)]} ({numbers['better']}/{numbers['worse']})"
+
+
+def _sign_checks(before: dict, after: dict | None, table: str) -> Iterator[Check]:
+    for row, values in sorted(before.items()):
+        now = (after or {}).get(row)
+        held = now is not None and now["pairs"] > 0 and _sign(now) == _sign(values)
+        what = f"sign (pairs better/worse) {_signed(values)} -> {_signed(now)}"
+        yield Check(f"{table}: {row}", what, held)
+
+
+def _training_model_checks(before: dict, after: dict | None, table: str) -> Iterator[Check]:
+    """Per method and training model: success on the real scene inside OLD's interval; for a
+    model other than the real scene's, the success its simulator predicted inside OLD's interval
+    (where OLD has a prediction) and, where OLD pairs it with twins trained on the real scene's
+    model, the sign of those pairs kept."""
+    yield from _success_checks(before, after, table)
+    # Rows are named "method=…, training_model=…, start_std_m=…" (_rows).
+    other = {k: v for k, v in before.items() if f"training_model={REAL_SCENE}," not in k}
+    predicted = {k: v for k, v in other.items() if not math.isnan(v["predicted_success_rate"])}
+    yield from _success_checks(predicted, after, table, "predicted")
+    yield from _sign_checks({k: v for k, v in other.items() if v["pairs"]}, after, table)
 
 
 def conclusion_checks(old: Path, new: Path, r_tolerance: float = R_TOLERANCE) -> list[Check]:
     """OLD's conclusions checked on NEW: deployment success per method and level inside OLD's
     95 % interval (robustness and success tables), each paired comparison's sign (better minus
-    worse pairs) kept, and each validation r within ``r_tolerance``."""
+    worse pairs) kept, per method and training model the conclusions of
+    :func:`_training_model_checks`, and each validation r within ``r_tolerance``."""
     checks: list[Check] = []
     for table, keys, numbers in HEADLINE_TABLES:
         before, after = _tables(old, new, table, keys, numbers)
@@ -357,11 +454,9 @@ def conclusion_checks(old: Path, new: Path, r_tolerance: float = R_TOLERANCE) ->
         if table in (ROBUSTNESS, SUCCESS):
             checks += _success_checks(before, after, table)
         elif table == PAIRED:
-            for row, values in sorted(before.items()):
-                now = (after or {}).get(row)
-                held = now is not None and _sign(now) == _sign(values)
-                what = f"sign (pairs better/worse) {_signed(values)} -> {_signed(now)}"
-                checks.append(Check(f"{table}: {row}", what, held))
+            checks += _sign_checks(before, after, table)
+        elif table == TRAINING_MODEL:
+            checks += _training_model_checks(before, after, table)
         else:
             for row, values in sorted(before.items()):
                 for column in ("r_f_x", "r_f_z"):
@@ -413,25 +508,41 @@ def compare(
             raise FileNotFoundError(f"{tree}: not a results tree (no planning/ or validation/)")
     with tempfile.TemporaryDirectory(prefix="pih-compare-") as scratch:
         keys = swept_keys(old) | swept_keys(new)
-        subset = runs_at_points(old, new, Path(scratch), keys)
-        shared = None if subset else shared_points(old, new, Path(scratch), keys)
-        scope = ""
+        # NEW's tables pool its own runs only, where its study's pool other published studies'.
+        study = pooling_study(new) if pools_its_runs(new) else None
+        pooled = pooled_planning(REPOSITORY, study) if study else []
+        subset = runs_at_points(old, new, Path(scratch), keys, pooled)
+        shared = None if subset else shared_points(old, new, Path(scratch), keys, pooled)
+        scopes = []
+        if study is not None:
+            others = " and ".join(
+                f"the {PUBLISHED_STUDIES[name].title}'s runs ({PUBLISHED_STUDIES[name].directory})"
+                for name in study.pools
+            )
+            scopes.append(
+                f"{new} is a run of the {study.title}: the tables remade here pool {others}, as "
+                "the study's do"
+            )
         if subset is not None:
-            scope = (
+            scopes.append(
                 f"{old} holds {len(run_directories(old))} planning runs: read at the "
                 f"{len(run_directories(new))} sweep points {new} has, its tables remade from them"
             )
             old = subset
         elif shared is not None:
-            scope = (
+            scopes.append(
                 f"{old} holds {len(run_directories(old))} planning runs and {new} "
                 f"{len(run_directories(new))}: both read at the "
                 f"{len(run_directories(shared[0]))} sweep points they share, their tables remade "
                 "from them"
             )
             old, new = shared
-        # A study read at some points is compared on what it carries (the paper-scale study
-        # publishes planning runs only, not a validation of its own).
+        if study is not None and shared is None:
+            runs = run_directories(new, keys)
+            new = _restricted(new, runs, set(runs), Path(scratch) / "new", pooled)
+        scope = "; ".join(scopes)
+        # A study read at some points or pooled is compared on what it carries (the paper-scale
+        # and contact-model studies publish planning runs only, not a validation of their own).
         tables = HEADLINE_TABLES
         if scope:
             tables = tuple(t for t in HEADLINE_TABLES if (old / t[0]).is_file())

@@ -24,7 +24,7 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
     study of the planner's own simulator (its tables have ``training_model``) shows that table
     instead (:func:`pih.reporting.summary.training_model_rows`)."""
     from pih.records.outputs import markdown_table
-    from pih.reporting.summary import perturbed_pairs, planning_rows, step_pairs
+    from pih.reporting.summary import pair_evidence, perturbed_pairs, planning_rows, step_pairs
 
     tables = published / "planning" / "summary"
     if study.in_parts and not tables.is_dir():
@@ -55,7 +55,8 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
         pd.read_parquet(tables / f"{name}.parquet") for name in ("success", "robustness", "paired")
     )
     time_step = None
-    pairs, caption = perturbed_pairs(paired, robustness), "Paired from offset starts"
+    pairs = pair_evidence(perturbed_pairs(paired, robustness))
+    caption = "Paired from offset starts"
     if (tables / "time_step.parquet").is_file():
         time_step = pd.read_parquet(tables / "time_step.parquet")
         pairs, caption = step_pairs(paired, robustness), "Paired from offset starts, at each step"
@@ -66,7 +67,7 @@ def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["de
             begin,
             source,
             markdown_table(planning_rows(success, robustness, time_step), "{:.3g}").strip(),
-            f"{caption} (sign test over the untied pairs):",
+            f"{caption} (what the columns mean: docs/planner.md, Intervals and tests):",
             markdown_table(pairs, "{:.3g}").strip(),
             end,
         ]

@@ -91,6 +91,7 @@ PUBLISHED_STUDIES = {
             ("config/config.yaml",),
             "default study",
             (*PLANNING_GLOBS, *VALIDATION_GLOBS, "whitney/*.parquet"),
+            page="docs/workflow.md",
         ),
         # The paper's 11 starts on seed 0; the default's seed-0 runs are among its 33, draw
         # for draw. Each run is redeployed under the five model errors too.
@@ -427,8 +428,13 @@ def remake_tables(planning: Path, also: Iterable[Path] = ()) -> None:
 def study_tables(root: Path, study: PublishedStudy) -> None:
     """A published study's tables (:func:`remake_tables`), pooled with the studies it
     :attr:`~PublishedStudy.pools`."""
-    others = [root / PUBLISHED_STUDIES[name].directory / "planning" for name in study.pools]
-    remake_tables(root / study.directory / "planning", others)
+    remake_tables(root / study.directory / "planning", pooled_planning(root, study))
+
+
+def pooled_planning(root: Path, study: PublishedStudy) -> list[Path]:
+    """The planning directories under ``root`` of the published studies ``study``
+    :attr:`~PublishedStudy.pools`."""
+    return [root / PUBLISHED_STUDIES[name].directory / "planning" for name in study.pools]
 
 
 def published_run_reasons(

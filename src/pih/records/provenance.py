@@ -31,6 +31,7 @@ PACKAGES = (
     "rerun-sdk",
     "snakemake",
     "cma",
+    "scipy",
     "matplotlib",
     "threadpoolctl",
 )

@@ -270,13 +270,52 @@ def step_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
     for step in sorted(at_step["step"].unique(), reverse=True):
         here = own if step == own_step else at_step[at_step["step"] == step]
         here = table[pair].merge(here, on=pair, how="left")
-        whole = here["pairs"].to_numpy() == table["pairs"].to_numpy()
-        table[f"at {1e3 * step:g} ms: better / worse / tied"] = [
-            f"{int(r.better)} / {int(r.worse)} / {int(r.tied)}" if full else "—"
-            for r, full in zip(here.itertuples(), whole, strict=True)
-        ]
-        table[f"p at {1e3 * step:g} ms"] = here["sign_test_p"].astype(object).where(whole, "—")
+        whole = pd.Series(here["pairs"].to_numpy() == table["pairs"].to_numpy())
+        evidence = pair_evidence(
+            here.fillna({"better": 0, "worse": 0, "tied": 0}).astype(
+                {"better": int, "worse": int, "tied": int}
+            )
+        )
+        at = f"{1e3 * step:g} ms"
+        for column, name in (
+            ("better / worse / tied", f"at {at}: better / worse / tied"),
+            ("difference (95 % CI)", f"difference at {at} (95 % CI)"),
+            ("p (least possible)", f"p at {at} (least possible)"),
+        ):
+            table[name] = evidence[column].where(whole, "—")
+        if step == own_step:
+            for column in ("tied at 10 of 10", "detectable"):
+                table[f"{column} at {at}"] = evidence[column].where(whole, "—")
     return table
+
+
+def _signed(value: float) -> str:
+    return f"{value:+.2f}".replace("+0.00", "0.00").replace("-0.00", "0.00")
+
+
+def pair_evidence(rows: pd.DataFrame) -> pd.DataFrame:
+    """Paired rows (:func:`pih.analysis.statistics.pair_counts`' columns) as a reader weighs
+    them: the signs, the pairs tied at the ceiling, the mean difference with its 95 % interval,
+    the sign test's p beside the least its untied pairs allow, and the smallest difference the
+    pairs could detect."""
+    keep = [c for c in rows.columns if c in ("level", "method", "versus", "pairs")]
+    return rows[keep].assign(
+        **{
+            "better / worse / tied": [
+                f"{r.better} / {r.worse} / {r.tied}" for r in rows.itertuples()
+            ],
+            "tied at 10 of 10": rows["tied_at_ceiling"],
+            "difference (95 % CI)": [
+                f"{_signed(r.mean_difference)} ({_signed(r.difference_ci_low)} to "
+                f"{_signed(r.difference_ci_high)})"
+                for r in rows.itertuples()
+            ],
+            "p (least possible)": [
+                f"{r.sign_test_p:.3g} ({r.least_possible_p:.3g})" for r in rows.itertuples()
+            ],
+            "detectable": [f"{r.detectable_difference:.2f}" for r in rows.itertuples()],
+        }
+    )
 
 
 def perturbed_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
@@ -397,14 +436,17 @@ the success tolerance of the true hole (median over runs; blank: in fewer than h
 {markdown_table(planning_rows(success, robustness), "{:.3g}")}
 
 Paired from starts {sigma} off, over the sweep points both methods ran (the same random draws):
-at how many `method` deployed more often than `versus`, less often or equally, the mean
-difference, and a two-sided exact sign test over the untied pairs.
+at how many `method` deployed more often than `versus`, less often or equally, and how many of
+the ties were both at 10 of 10 (a ceiling that hides any difference); the mean difference with
+a 95 % paired bootstrap interval; a two-sided exact sign test over the untied pairs, beside the
+least p their number allows; the smallest mean difference the pairs could detect (a paired
+t-test at 0.05 with 80 % power; docs/planner.md, "Intervals and tests").
 
-{markdown_table(perturbed_pairs(paired, robustness), "{:.3g}")}
+{markdown_table(pair_evidence(perturbed_pairs(paired, robustness)), "{:.3g}")}
 
 The same from the training start (nominal deployment):
 
-{markdown_table(paired_rows(paired), "{:.3g}")}
+{markdown_table(pair_evidence(paired_rows(paired)), "{:.3g}")}
 {model_error}
 ## Hydroelastic contact vs Whitney's theory (paper Tables 2–3)
 
