@@ -507,3 +507,31 @@ def test_a_training_model_without_twins_keeps_no_sign(tmp_path):
     assert all(c.holds for c in conclusion_checks(old, old))
     failed = [c.what for c in conclusion_checks(old, twinless) if not c.holds]
     assert failed == ["sign (pairs better/worse) 0 (0/0) -> no pairs"] * 2
+
+
+def test_a_fresh_run_is_judged_only_on_the_redeployments_its_config_asked_for(tmp_path):
+    """The paper-scale study, redeployed under model errors and on the ladder, against a fresh
+    default-like run at one of its points that made none of them: OLD's rows and files of those
+    deployments are not NEW's to reproduce; a model error both made still counts."""
+    from pih.analysis.pooling import find_outputs, pool
+    from pih.reporting.planning_summary import write_pooled_summary
+
+    old = ROOT / "published" / "paper"
+    new = tmp_path / "new"
+    for run in sorted((old / "planning").glob("start_x_m~-0.04_*_seed~0")):
+        target = new / "planning" / run.name
+        target.mkdir(parents=True)
+        for name in ("rollouts.parquet", "redeploy_start_std_m~0.001.parquet"):
+            shutil.copy(run / name, target / name)
+    write_pooled_summary(pool(*find_outputs([new / "planning"])), new / "planning" / "summary")
+    result = compare(old, new)
+    assert result.conclusions_hold, [str(c) for c in result.checks if not c.holds]
+    assert not any("model_error" in str(d) for d in result.differences)
+    # NEW made one model error too: OLD's rows for it are checked, the others still not.
+    for run in sorted((old / "planning").glob("start_x_m~-0.04_*_seed~0")):
+        name = "redeploy_model_error~hole_right_0_5mm.parquet"
+        shutil.copy(run / name, new / "planning" / run.name / name)
+    write_pooled_summary(pool(*find_outputs([new / "planning"])), new / "planning" / "summary")
+    checked = [str(c) for c in compare(old, new).checks]
+    assert any("hole_right_0_5mm" in c for c in checked)
+    assert not any("friction_0_5" in c for c in checked)

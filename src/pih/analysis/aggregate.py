@@ -12,20 +12,18 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from pih.analysis.ladder import ladder_pairs, ladder_table
 from pih.analysis.run_summary import (
     FIRST_SENSING_COLUMNS,
     NO_MODEL_ERROR,
+    REPLICATE_KEYS,
+    compared_keys,
     level_columns,
     split_keys,
 )
 from pih.analysis.statistics import PAIR_STATISTICS_COLUMNS, pair_counts, rate_over_runs
 from pih.analysis.training_model import simulator_keys, training_model_table
 from pih.study.points import VARIANT_KEY
-
-SEED_KEY = "planner.seed"
-REPLICATE_KEYS = ("planner.start_x_m", SEED_KEY)
-"""Sweep dimensions that replicate a comparison rather than define one (the ablation table
-pools over them)."""
 
 
 def ablation_table(success: pd.DataFrame) -> pd.DataFrame:
@@ -139,12 +137,6 @@ ROBUSTNESS_COLUMNS: dict[str, tuple[str, str]] = {
     "deploy_ci_high": ("1", "95 % Wilson interval over runs, high"),
     "runs_all_inserted": ("1", "runs whose every trial inserted"),
 }
-
-
-def compared_keys(sweep_keys: list[str]) -> list[str]:
-    """The sweep dimensions that define a comparison (e.g. ``variant``): not the method's, not
-    the replicates (start, seed)."""
-    return [key for key in split_keys(sweep_keys) if key not in REPLICATE_KEYS]
 
 
 def robustness_columns(sweep_keys: list[str]) -> dict[str, tuple[str, str]]:
@@ -487,6 +479,10 @@ class PlanningTables:
     training_model: pd.DataFrame | None = None
     """the planner's simulator against reality (:mod:`pih.analysis.training_model`); None when
     the study sweeps no simulator"""
+    ladder: pd.DataFrame | None = None
+    """success per rung of the deployment ladder (:mod:`pih.analysis.ladder`); None with fewer
+    than two rungs"""
+    ladder_pairs: pd.DataFrame | None = None
 
 
 def variant_pairs(summaries: pd.DataFrame, sweep_keys: list[str], reference: str) -> pd.DataFrame:
@@ -540,6 +536,8 @@ def planning_tables(
     )
     redeployed = robustness_pairs(deployments, sweep_keys)
     paired = [paired_table(summaries, sweep_keys), against_reference, redeployed]
+    ladder = ladder_table(deployments, sweep_keys)
+    climbed = ladder["rung"].nunique() > 2  # two rungs and their score
     return PlanningTables(
         bands=cost_bands(runs, sweep_keys),
         success=success,
@@ -554,4 +552,6 @@ def planning_tables(
             if simulator_keys(sweep_keys)
             else None
         ),
+        ladder=ladder if climbed else None,
+        ladder_pairs=ladder_pairs(deployments, sweep_keys) if climbed else None,
     )

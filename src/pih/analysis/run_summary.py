@@ -259,6 +259,18 @@ def split_keys(sweep_keys: list[str]) -> list[str]:
     return [key for key in sweep_keys if key != GOAL_KEY]
 
 
+SEED_KEY = "planner.seed"
+REPLICATE_KEYS = ("planner.start_x_m", SEED_KEY)
+"""Sweep dimensions that replicate a comparison rather than define one (the ablation table
+pools over them)."""
+
+
+def compared_keys(sweep_keys: list[str]) -> list[str]:
+    """The sweep dimensions that define a comparison (e.g. ``variant``): not the method's, not
+    the replicates (start, seed)."""
+    return [key for key in split_keys(sweep_keys) if key not in REPLICATE_KEYS]
+
+
 def level_columns(sweep_keys: list[str]) -> dict[str, tuple[str, str]]:
     """Unit specs of the per-run sweep-level columns of :func:`run_tables`' outputs."""
     return {key: ("", f"sweep level of {key}") for key in split_keys(sweep_keys)}

@@ -213,15 +213,53 @@ def _rows(path: Path, keys: tuple[str, ...], numbers: tuple[str, ...]) -> dict[s
     }
 
 
+def redeployed(tree: Path) -> set[tuple[float, str]] | None:
+    """The deployments a tree's config asked for, (start std, model error) as its robustness
+    table lists them (the runs' own and every redeployment); None without that table."""
+    path = tree / ROBUSTNESS
+    if not path.is_file():
+        return None
+    frame = pd.read_parquet(path)
+    if "model_error" not in frame:
+        frame = frame.assign(model_error=NO_MODEL_ERROR)
+    return set(zip(frame["start_std_m"].astype(float), frame["model_error"], strict=True))
+
+
+def _asked_for(row: str, table: str, made: set[tuple[float, str]]) -> bool:
+    """Whether OLD's ``row`` of ``table`` is about a deployment NEW made (:func:`redeployed`):
+    a robustness row at a start std and model error NEW deployed at, a paired row under a model
+    error NEW deployed on or from starts NEW deployed from."""
+    fields = dict(part.split("=", 1) for part in row.split(", ") if "=" in part)
+    errors = {error for _, error in made}
+    stds = {std for std, _ in made}
+    if table == ROBUSTNESS:
+        error = fields.get("model_error", NO_MODEL_ERROR)
+        return (float(fields["start_std_m"]), error) in made
+    if fields.get("dimension") == "model_error":
+        level = row.split("level=", 1)[1]
+        return any(level == e or level.startswith(f"{e}, ") for e in errors)
+    if fields.get("dimension") == "start_std_m":
+        return float(fields["level"]) in stds
+    if " m off" in row and "level=" in row:
+        level = row.split("level=", 1)[1]
+        off = level.split("starts ", 1)[1].split(" m off", 1)[0] if "starts " in level else None
+        return off is None or float(off) in stds
+    return True
+
+
 def _tables(old: Path, new: Path, table: str, keys: tuple[str, ...], numbers: tuple[str, ...]):
     """Both trees' rows of ``table`` (None for a tree without it). The pairs at a replay's step
     count only when both trees hold replays: a workflow run makes none (a published study's are
     made beside its runs, ``pih publish --replay-step``), so a fresh run is judged on what it
-    can reproduce."""
+    can reproduce. Likewise OLD's rows of deployments NEW's config did not ask for (a published
+    study's ladder against a fresh default run) are not NEW's to reproduce (:func:`_asked_for`)."""
     rows = [_rows(t / table, keys, numbers) if (t / table).is_file() else None for t in (old, new)]
     if table == PAIRED and not all((t / TIME_STEP).is_file() for t in (old, new)):
         replayed = "dimension=time_step_s"
         rows = [r and {k: v for k, v in r.items() if replayed not in k} for r in rows]
+    made = redeployed(new)
+    if made is not None and table in (ROBUSTNESS, PAIRED) and rows[0] is not None:
+        rows[0] = {k: v for k, v in rows[0].items() if _asked_for(k, table, made)}
     return tuple(rows)
 
 
@@ -377,8 +415,11 @@ def _same_data(a: Path, b: Path) -> bool:
 def run_differences(old: Path, new: Path, keys: Iterable[str] = ()) -> Iterator[Difference]:
     """Every planning run file whose data (the table, not its provenance) differs or is missing,
     named by its path in the tree that has it (the new one when both do); runs are matched by
-    their sweep point over ``keys`` too (:func:`run_directories`)."""
+    their sweep point over ``keys`` too (:func:`run_directories`). A redeployment NEW made of
+    none of its runs (a model error its config did not ask for) is not NEW's to reproduce."""
     before, after = run_files(old, keys), run_files(new, keys)
+    made = {Path(data).name for data in after.values()}
+    before = {name: data for name, data in before.items() if data.name in made}
     for name in sorted(set(before) | set(after)):
         where = after.get(name, before.get(name))
         tree = new if name in after else old

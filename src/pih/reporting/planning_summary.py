@@ -20,6 +20,7 @@ from pih.analysis.aggregate import (
     planning_tables,
     robustness_columns,
 )
+from pih.analysis.ladder import LADDER_COLUMNS, LADDER_PAIR_COLUMNS, ladder_columns
 from pih.analysis.pooling import SOURCE_COLUMNS, PooledRuns
 from pih.analysis.run_summary import BEST_COST_COLUMNS, level_columns
 from pih.analysis.time_step import time_step_columns, with_time_step
@@ -38,8 +39,10 @@ def write_planning_summary(
 ) -> None:
     """Every summary file of a study's planning runs under ``directory`` (``runs``,
     ``cost_bands``, ``success``, ``paired``, ``robustness``, ``ablation``, ``per_run``, with
-    replays ``time_step``, with a swept ``planner.simulator`` ``training_model``: ``.parquet``
-    and ``.md``; ``success.csv``; ``fig9_cost_bands.{png,pdf}``, ``fig_deploy_success.png``),
+    replays ``time_step``, with a swept ``planner.simulator`` ``training_model``, with two rungs
+    of the deployment ladder ``ladder`` (and ``ladder_pairs.parquet``, ``fig_ladder.png``):
+    ``.parquet`` and ``.md``; ``success.csv``; ``fig9_cost_bands.{png,pdf}``,
+    ``fig_deploy_success.png``),
     each with the provenance ``record``."""
     directory = Path(directory)
     frames = {
@@ -55,6 +58,13 @@ def write_planning_summary(
         frames["time_step"] = (tables.time_step, time_step_columns(sweep_keys))
     if tables.training_model is not None:
         frames["training_model"] = (tables.training_model, TRAINING_MODEL_COLUMNS)
+    if tables.ladder is not None:
+        compared = level_columns(compared_keys(sweep_keys))
+        frames["ladder"] = (tables.ladder, ladder_columns(LADDER_COLUMNS, compared))
+        frames["ladder_pairs"] = (
+            tables.ladder_pairs,
+            ladder_columns(LADDER_PAIR_COLUMNS, compared),
+        )
     for name, (frame, columns) in frames.items():
         write_table(frame, directory / f"{name}.parquet", record, columns)
     robustness = f"{markdown_table(tables.robustness)}\n\n{markdown_table(tables.robustness_pairs)}"
@@ -79,10 +89,17 @@ def write_planning_summary(
         )
     if tables.training_model is not None:
         markdown["training_model"] = markdown_table(tables.training_model)
+    if tables.ladder is not None:
+        markdown["ladder"] = "\n\n".join(
+            markdown_table(t) for t in (tables.ladder, tables.ladder_pairs)
+        )
     # An earlier pooling's table that this one has no data for would misreport it.
-    for name in {"time_step", "training_model"} - set(markdown):
-        for suffix in (".parquet", ".md"):
-            (directory / f"{name}{suffix}").unlink(missing_ok=True)
+    for name in {"time_step", "training_model", "ladder"} - set(markdown):
+        for path in (directory / f"{name}.parquet", directory / f"{name}.md"):
+            path.unlink(missing_ok=True)
+    if tables.ladder is None:
+        for path in (directory / "ladder_pairs.parquet", directory / "fig_ladder.png"):
+            path.unlink(missing_ok=True)
     for name, text in markdown.items():
         write_text(directory / f"{name}.md", text, record)
     write_text(directory / "success.csv", tables.success.to_csv(index=False))
@@ -97,6 +114,12 @@ def write_planning_summary(
         directory / "fig_deploy_success.png",
         provenance=record,
     )
+    if tables.ladder is not None:
+        plots.save(
+            plots.ladder_figure(tables.ladder),
+            directory / "fig_ladder.png",
+            provenance=record,
+        )
 
 
 def write_pooled_summary(

@@ -342,6 +342,59 @@ def deploy_success_figure(success: pd.DataFrame, robustness: pd.DataFrame) -> pl
     return fig
 
 
+def ladder_figure(ladder: pd.DataFrame) -> plt.Figure:
+    """The deployment ladder's picture (:func:`pih.analysis.ladder.ladder_table`): each method's
+    deployment success against how far the real hole moved after training, with its 95 %
+    interval over runs, 0 the training scene from the same offset starts; one panel per level of
+    the compared dimensions. Where the fixed goals fall below one-level's line, its fresh
+    sensing (which moves with the hole) has overtaken them."""
+    holes = ladder[ladder["hole_shift_m"].notna()]
+    std = holes.loc[holes["hole_shift_m"] != 0, "start_std_m"]
+    holes = holes[holes["start_std_m"] == (std.iloc[0] if len(std) else holes["start_std_m"].min())]
+    compared = [c for c in ladder.columns if c.startswith("planner.") or c == "variant"]
+    panels = list(holes.groupby(compared)) if compared else [((), holes)]
+    fig, axes = plt.subplots(
+        1, len(panels), figsize=(4.2 * len(panels) + 1.6, 3.6), sharey=True, squeeze=False
+    )
+    colours = plt.get_cmap("tab10")
+    methods = sorted(ladder["method"].unique())
+    for ax, (levels, part) in zip(axes[0], panels, strict=True):
+        for m, method in enumerate(methods):
+            rows = part[part["method"] == method].sort_values("hole_shift_m")
+            if rows.empty:
+                continue
+            shift = 1e3 * rows["hole_shift_m"].to_numpy()
+            rate = rows["deploy_success_rate"].to_numpy()
+            ax.errorbar(
+                shift + 0.03 * (m - (len(methods) - 1) / 2),
+                rate,
+                yerr=[rate - rows["deploy_ci_low"], rows["deploy_ci_high"] - rate],
+                fmt=f"{METHOD_MARKERS[m % len(METHOD_MARKERS)]}-",
+                color=colours(m),
+                ms=5,
+                lw=1.0,
+                capsize=2,
+                label=f"{method} (n = {int(rows['runs'].max())})",
+            )
+        levels = levels if isinstance(levels, tuple) else (levels,)
+        named = [f"{k.rsplit('.', 1)[-1]} = {v}" for k, v in zip(compared, levels, strict=True)]
+        ax.set_title(
+            ", ".join(n for n in named if not n.endswith("= None")) or "all runs", fontsize=8
+        )
+        ax.set_xlabel("real hole moved after training, x (mm)")
+        ax.axvline(0, color="grey", lw=0.6, ls=":")
+        ax.set_ylim(-0.03, 1.03)
+        ax.grid(alpha=0.3)
+    std_mm = 1e3 * holes["start_std_m"].iloc[0] if len(holes) else float("nan")
+    axes[0][0].set_ylabel(
+        f"deployment success rate\n(starts {std_mm:g} mm off; 95 % interval over runs)"
+    )
+    axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0)
+    fig.suptitle("The deployment ladder: when does a fixed goal stop inserting?", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
 def run_figure(
     rollouts: pd.DataFrame, best_paths: pd.DataFrame, hole: HoleConfig, title: str
 ) -> plt.Figure:
