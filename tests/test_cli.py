@@ -1,6 +1,9 @@
 """The command line: `pih show` and `pih provenance`, on good and bad files."""
 
 import copy
+import subprocess
+import sys
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -8,6 +11,8 @@ import pytest
 from pih.__main__ import main
 from pih.records.outputs import read_provenance, write_table
 from pih.records.provenance import record
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture
@@ -456,3 +461,19 @@ def test_help_is_a_short_list_of_commands(capsys):
     assert "``" not in out and len(out.splitlines()) <= 40
     for command in ("show", "replay", "compare", "publish", "status", "aggregate"):
         assert f"    {command} " in out
+
+
+def test_a_reader_that_stops_early_ends_the_command_quietly():
+    """``pih provenance F... | head -1``: the pipe closes before the output is written (here
+    hundreds of kB, more than a pipe holds), and pih ends with 0 and nothing on stderr, as cat
+    does, not with "Broken pipe"."""
+    files = sorted((ROOT / "published" / "paper" / "planning" / "summary").glob("*.parquet"))
+    process = subprocess.Popen(
+        [sys.executable, "-m", "pih", "provenance", *map(str, files)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert process.stdout.readline()
+    process.stdout.close()
+    assert process.wait(timeout=120) == 0
+    assert process.stderr.read() == b""

@@ -80,6 +80,24 @@ def test_committed_schema_matches_the_code():
     )
 
 
+def test_the_conda_env_asks_for_the_pythons_the_package_supports():
+    """``--sdm conda`` builds workflow/envs/pih.yaml, which installs this package: its Python
+    must be one pyproject's requires-python admits, the ones CI tests (3.12 and 3.13)."""
+    import tomllib
+
+    import yaml
+    from packaging.specifiers import SpecifierSet
+
+    env = yaml.safe_load((ROOT / "workflow" / "envs" / "pih.yaml").read_text())
+    (python,) = [d for d in env["dependencies"] if isinstance(d, str) and d.startswith("python")]
+    conda = SpecifierSet(python.removeprefix("python"))
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["requires-python"]
+    for version in ("3.12", "3.13"):
+        assert version in conda and version in SpecifierSet(project)
+    for version in ("3.10", "3.11"):
+        assert version not in conda, f"{python}: the package requires {project}"
+
+
 @pytest.mark.slow
 def test_default_config_dry_run_lists_the_full_study(tmp_path):
     work = copy_workflow(tmp_path)

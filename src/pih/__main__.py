@@ -81,6 +81,11 @@ def _one_line_errors(command: Callable[[list[str] | None], int]) -> Callable[...
     def run(argv: list[str] | None = None) -> int:
         try:
             return command(argv)
+        except BrokenPipeError:
+            # The reader stopped early (pih show F | head): end quietly, its output is complete
+            # for it. stdout now points at nothing, so that the exit's flush cannot fail again.
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            return 0
         except Exception as error:
             if job.running_script or os.environ.get("PIH_TRACEBACK", "") not in ("", "0"):
                 raise
@@ -187,9 +192,15 @@ def main(argv: list[str] | None = None) -> int:
         help=f"how far a validation r may move (default {R_TOLERANCE:g})",
     )
     publish = commands.add_parser(
-        "publish", help="copy a finished study into published/STUDY (README's source)"
+        "publish", help="copy a finished study into published/STUDY (its page's source)"
     )
-    publish.add_argument("results", type=Path, nargs="?", default=Path("results"))
+    publish.add_argument(
+        "results",
+        type=Path,
+        nargs="?",
+        default=Path("results"),
+        help="the results tree of a finished run of the study (default: results)",
+    )
     publish.add_argument(
         "--study",
         choices=list(PUBLISHED_STUDIES),
