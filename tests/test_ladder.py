@@ -83,7 +83,8 @@ def test_rungs_are_offset_starts_and_moved_holes_and_the_score_their_common_mean
     assert (hole["tied_at_floor"], hole["tied_at_ceiling"]) == (1, 0)
     assert pairs.loc["starts 1 mm off", "better"] == 3
     assert rung_label(0.00125, 0.0) == "starts 1.25 mm off"
-    assert rung_label(0.001, -0.00075) == "hole -0.75 mm"
+    assert rung_label(0.001, -0.00075, moved_std_m=0.001) == "hole -0.75 mm"
+    assert rung_label(0.00125, 0.001, moved_std_m=0.001) == "hole +1 mm, starts 1.25 mm off"
 
 
 def test_a_training_model_is_paired_with_its_twin_on_every_rung():

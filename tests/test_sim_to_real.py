@@ -329,7 +329,7 @@ def test_expected_success_at_the_sensings_own_rate():
     runs = pd.DataFrame(
         {
             "method": ["bilevel"] * 4 + ["one_level"] * 3,
-            "first_sensing_error_m": [0.001, 0.0005, 0.003, 0.006, 0.001, 0.003, 0.006],
+            "first_sensing_dx_m": [0.001, -0.0005, 0.003, -0.006, 0.001, 0.003, 0.006],
             "offset_deploy_success_rate": [1.0, 0.8, 0.0, 0.1, 0.2, 0.6, 0.3],
         }
     )

@@ -148,32 +148,45 @@ def test_pair_statistics_say_what_the_pairs_could_show():
         paired_difference_interval,
     )
 
-    # 11 pairs, 10 of them both at 10 of 10 and one a trial worse: the ceiling hides any gain.
+    t_975 = stats.t.ppf(0.975, 10)
+    # 11 pairs, 10 of them both at 10 of 10 and one a trial worse: the ceiling hides any gain,
+    # and the interval, its spread floored at one trial in ten, reaches both ways.
     ceiling = pd.Series([1.0] * 11)
     one_worse = pd.Series([1.0] * 10 + [0.9])
     counts = pair_counts(one_worse, ceiling)
     assert (counts["better"], counts["worse"], counts["tied"]) == (0, 1, 10)
-    assert counts["tied_at_ceiling"] == 10
+    assert (counts["tied_at_ceiling"], counts["tied_at_floor"]) == (10, 0)
     assert counts["least_possible_p"] == 1.0 and counts["sign_test_p"] == 1.0
-    assert counts["difference_ci_low"] < 0 and counts["difference_ci_high"] <= 0
-    # All pairs alike: no spread to resample, the floor sets what could be detected.
-    assert paired_difference_interval(ceiling, ceiling) == (0.0, 0.0)
-    t_sum = stats.t.ppf(0.975, 10) + stats.t.ppf(0.8, 10)
+    half = t_975 * 0.1 / np.sqrt(11)
+    assert counts["difference_ci_low"] == pytest.approx(-0.1 / 11 - half)
+    assert counts["difference_ci_high"] == pytest.approx(-0.1 / 11 + half)
+    assert counts["difference_ci_high"] > 0
+    # All pairs alike are no point interval: a rerun would spread them.
+    assert paired_difference_interval(ceiling, ceiling) == pytest.approx((-half, half))
+    assert paired_difference_interval(ceiling, ceiling * 0) == pytest.approx((1 - half, 1.0))
+    # The t-interval of the pairs (ours against mean_sensed_hole): it holds 0.
+    ours = np.array([0.3, 0, 0, -0.1, 0.3, 0.1, 0, 0, 0.2, 0, 0])
+    low, high = paired_difference_interval(ours, np.zeros(11))
+    assert (round(low, 2), round(high, 2)) == (-0.02, 0.16)
+    t_sum = t_975 + stats.t.ppf(0.8, 10)
     assert detectable_difference(np.zeros(11)) == pytest.approx(t_sum * 0.1 / np.sqrt(11))
     spread = np.array([0.0, 0.5, -0.5, 1.0, 0.0, 0.2, 0.3, -0.2, 0.0, 0.1, 0.4])
     assert detectable_difference(spread) == pytest.approx(t_sum * spread.std(ddof=1) / np.sqrt(11))
-    assert np.isnan(detectable_difference(np.zeros(1)))
+    # Too few pairs for the sign test to reach 0.05, or nothing in [-1, 1] detectable: none.
+    assert np.isnan(detectable_difference(np.zeros(5)))
+    assert not np.isnan(detectable_difference(np.zeros(6)))
+    assert np.isnan(detectable_difference(np.array([1.0, -1.0] * 3)))
     # 2^(1-k): 5 untied pairs cannot reach 0.05, 6 can.
     assert least_sign_test_p(5) == 0.0625 and least_sign_test_p(6) == 0.03125
     assert least_sign_test_p(0) == 1.0
-    # A clear difference: the interval holds the mean and excludes 0; same draws, same interval.
+    # A clear difference: the interval holds the mean and excludes 0.
     a = pd.Series([1.0, 0.9, 1.0, 0.8, 1.0, 1.0, 0.7, 1.0])
     b = pd.Series([0.2, 0.4, 0.0, 0.3, 0.5, 0.1, 0.0, 0.6])
     low, high = paired_difference_interval(a, b)
     assert 0 < low < (a - b).mean() < high <= 1
-    assert paired_difference_interval(a, b) == (low, high)
-    # A point one method lacks is no pair.
+    # A point one method lacks is no pair; both at 0 of 10 is a tie at the floor.
     assert pair_counts(a, b.iloc[:5])["pairs"] == 5
+    assert pair_counts(ceiling * 0, ceiling * 0)["tied_at_floor"] == 11
 
 
 def test_paired_table_compares_methods_at_the_points_both_ran():

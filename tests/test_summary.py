@@ -212,7 +212,7 @@ def test_the_headline_at_a_finer_step_stands_beside_the_runs_own():
         "at 0.5 ms: better / worse / tied",
         "difference at 0.5 ms (95 % CI)",
         "p at 0.5 ms (least possible)",
-        "tied at 10 of 10 at 0.5 ms",
+        "tied at the ceiling at 0.5 ms",
         "detectable at 0.5 ms",
         "at 0.0625 ms: better / worse / tied",
         "difference at 0.0625 ms (95 % CI)",

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from pih.analysis.ladder import ladder_pairs, ladder_table
+from pih.analysis.ladder import ALL_RUNGS, ladder_pairs, ladder_table
 from pih.analysis.run_summary import (
     FIRST_SENSING_COLUMNS,
     NO_MODEL_ERROR,
@@ -21,7 +21,7 @@ from pih.analysis.run_summary import (
     level_columns,
     split_keys,
 )
-from pih.analysis.statistics import PAIR_STATISTICS_COLUMNS, pair_counts, rate_over_runs
+from pih.analysis.statistics import TEST_COLUMNS, TIE_COLUMNS, pair_counts, rate_over_runs
 from pih.analysis.training_model import simulator_keys, training_model_table
 from pih.study.points import VARIANT_KEY
 
@@ -386,12 +386,12 @@ PAIRED_COLUMNS: dict[str, tuple[str, str]] = {
     "better": ("1", "pairs where `method` deployed more often than `versus`"),
     "worse": ("1", "pairs where `method` deployed less often"),
     "tied": ("1", "pairs with equal deployment success"),
-    "tied_at_ceiling": PAIR_STATISTICS_COLUMNS["tied_at_ceiling"],
+    **TIE_COLUMNS,
     "mean_difference": (
         "1",
         "mean over pairs of the deployment success of `method` minus that of `versus`",
     ),
-    **{k: v for k, v in PAIR_STATISTICS_COLUMNS.items() if k != "tied_at_ceiling"},
+    **TEST_COLUMNS,
 }
 
 
@@ -537,7 +537,7 @@ def planning_tables(
     redeployed = robustness_pairs(deployments, sweep_keys)
     paired = [paired_table(summaries, sweep_keys), against_reference, redeployed]
     ladder = ladder_table(deployments, sweep_keys)
-    climbed = ladder["rung"].nunique() > 2  # two rungs and their score
+    climbed = ladder.loc[ladder["rung"] != ALL_RUNGS, "rung"].nunique() >= 2
     return PlanningTables(
         bands=cost_bands(runs, sweep_keys),
         success=success,

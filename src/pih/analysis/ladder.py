@@ -14,7 +14,7 @@ import math
 import pandas as pd
 
 from pih.analysis.run_summary import NO_MODEL_ERROR, compared_keys, split_keys
-from pih.analysis.statistics import PAIR_STATISTICS_COLUMNS, pair_counts, rate_over_runs
+from pih.analysis.statistics import TEST_COLUMNS, TIE_COLUMNS, pair_counts, rate_over_runs
 from pih.analysis.training_model import (
     REAL_SCENE,
     SIMULATED_HOLE_KEY,
@@ -36,6 +36,7 @@ LADDER_COLUMNS: dict[str, tuple[str, str]] = {
     ),
     "start_std_m": ("m", "std of the trials' start offset in x and y (NaN: all rungs)"),
     "hole_shift_m": ("m", "how far the real hole moved in x after training (NaN: all rungs)"),
+    "rungs": ("1", "rungs the row is over: 1, or for the score the rungs every run has"),
     "runs": ("1", "independent planning runs"),
     "deploy_success_rate": ("1", "mean over runs of the fraction of trials that inserted"),
     "deploy_ci_low": ("1", "95 % Wilson interval over runs (each run one observation), low"),
@@ -50,14 +51,14 @@ LADDER_PAIR_COLUMNS: dict[str, tuple[str, str]] = {
         "the method it is compared with at the same points, or its twin trained on the real scene",
     ),
     "rung": ("", "the ladder rung (as in the ladder table)"),
+    "rungs": ("1", "rungs the row is over (as in the ladder table)"),
     "pairs": ("1", "sweep points (or twins) both ran: the same draws"),
     "better": ("1", "pairs where `method` deployed more often than `versus`"),
     "worse": ("1", "pairs where `method` deployed less often"),
     "tied": ("1", "pairs with equal deployment success"),
-    "tied_at_ceiling": PAIR_STATISTICS_COLUMNS["tied_at_ceiling"],
-    "tied_at_floor": ("1", "tied pairs where neither inserted in any trial"),
+    **TIE_COLUMNS,
     "mean_difference": ("1", "mean over pairs of `method`'s success minus `versus`'s"),
-    **{k: v for k, v in PAIR_STATISTICS_COLUMNS.items() if k != "tied_at_ceiling"},
+    **TEST_COLUMNS,
 }
 
 
@@ -71,42 +72,47 @@ def ladder_columns(
     return dict([*names[:at], *compared.items(), *names[at:]])
 
 
-def rung_label(start_std_m: float, hole_shift_m: float) -> str:
-    """A rung's name: ``starts 1.25 mm off`` on the training scene, ``hole +0.75 mm`` moved."""
+def rung_label(start_std_m: float, hole_shift_m: float, moved_std_m: float | None = None) -> str:
+    """A rung's name: ``starts 1.25 mm off`` on the training scene, ``hole +0.75 mm`` moved (and
+    its starts when they are not ``moved_std_m``, the moved holes' usual σ)."""
     if hole_shift_m == 0:
         return f"starts {1e3 * start_std_m:g} mm off"
-    return f"hole {1e3 * hole_shift_m:+g} mm"
+    starts = "" if start_std_m == moved_std_m else f", starts {1e3 * start_std_m:g} mm off"
+    return f"hole {1e3 * hole_shift_m:+g} mm{starts}"
 
 
 def ladder_runs(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFrame:
     """One row per run and rung: every deployment from offset starts on the training scene or
-    on a scene whose hole alone moved (``hole_shift_m``, :func:`pih.analysis.pooling.pool`),
-    and per run its :data:`ALL_RUNGS` score over the rungs every run here has."""
-    frame = deployments.copy()
-    if "model_error" in frame:
-        frame["model_error"] = frame["model_error"].fillna(NO_MODEL_ERROR)
-    else:
-        frame["model_error"] = NO_MODEL_ERROR
+    on a scene whose hole alone moved (``hole_shift_m``, :func:`pih.analysis.pooling.pool`; two
+    model errors that move it alike are one rung), and per run its :data:`ALL_RUNGS` score over
+    the rungs every run here has (``rungs``: how many; 1 on a rung's own rows)."""
+    frame = deployments.assign(
+        model_error=deployments.get("model_error", NO_MODEL_ERROR),
+        hole_shift_m=deployments.get("hole_shift_m", 0.0),
+    )
+    frame["model_error"] = frame["model_error"].fillna(NO_MODEL_ERROR)
     trained = (frame["model_error"] == NO_MODEL_ERROR) & (frame["start_std_m"] > 0)
     moved = frame["hole_shift_m"].notna() & (frame["hole_shift_m"] != 0)
-    frame = frame[trained | moved].drop_duplicates(["run", "start_std_m", "model_error"])
+    frame = frame[trained | moved].drop_duplicates(["run", "start_std_m", "hole_shift_m"])
     levels = split_keys(sweep_keys)
     columns = ["method", "run", *levels, "start_std_m", "hole_shift_m", "deploy_success_rate"]
+    stds = frame.loc[frame["hole_shift_m"] != 0, "start_std_m"]
+    moved_std = float(stds.mode().iloc[0]) if len(stds) else None
     frame = frame[columns].assign(
         rung=[
-            rung_label(s, h)
+            rung_label(s, h, moved_std)
             for s, h in zip(frame["start_std_m"], frame["hole_shift_m"], strict=True)
-        ]
+        ],
+        rungs=1,
     )
     if frame.empty:
         return frame
-    runs = frame.groupby("run")["rung"].agg(frozenset)
-    common = frozenset.intersection(*runs)
+    common = frozenset.intersection(*frame.groupby("run")["rung"].agg(frozenset))
     score = (
         frame[frame["rung"].isin(common)]
         .groupby(["method", "run", *levels], as_index=False)["deploy_success_rate"]
         .mean()
-        .assign(rung=ALL_RUNGS, start_std_m=math.nan, hole_shift_m=math.nan)
+        .assign(rung=ALL_RUNGS, start_std_m=math.nan, hole_shift_m=math.nan, rungs=len(common))
     )
     return pd.concat([frame, score[frame.columns]], ignore_index=True)
 
@@ -139,6 +145,7 @@ def ladder_table(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFra
                 "rung": rung,
                 "start_std_m": part["start_std_m"].iloc[0],
                 "hole_shift_m": part["hole_shift_m"].iloc[0],
+                "rungs": int(part["rungs"].iloc[0]),
                 "runs": len(part),
                 "deploy_success_rate": rate,
                 "deploy_ci_low": low,
@@ -161,9 +168,7 @@ def _pairs(frame: pd.DataFrame, index: list[str], column: str) -> list[dict[str,
     for a, b in itertools.combinations(sorted(wide.columns), 2):
         counts = pair_counts(wide[a], wide[b])
         if counts["pairs"]:
-            both = wide[[a, b]].dropna()
-            floor = int(((both[a] == 0) & (both[b] == 0)).sum())
-            rows.append({"method": a, "versus": b, **counts, "tied_at_floor": floor})
+            rows.append({"method": a, "versus": b, **counts})
     return rows
 
 
@@ -179,8 +184,9 @@ def ladder_pairs(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFra
         return pd.DataFrame(columns=columns)
     rows = []
     for (rung, *group), part in runs.groupby(["rung", *compared]):
-        named = dict(zip(compared, group, strict=True))
-        rows += [{**r, **named, "rung": rung} for r in _pairs(part, levels, "method")]
+        named = {**dict(zip(compared, group, strict=True)), "rung": rung}
+        named["rungs"] = int(part["rungs"].iloc[0])
+        rows += [{**r, **named} for r in _pairs(part, levels, "method")]
     keys = simulator_keys(sweep_keys)
     if keys:
         # Only runs trained on the true hole, as in the training-model table.
@@ -201,15 +207,13 @@ def ladder_pairs(deployments: pd.DataFrame, sweep_keys: list[str]) -> pd.DataFra
                 counts = pair_counts(own, reference)
                 if not counts["pairs"]:
                     continue
-                floor = int(((own == 0) & (reference == 0)).sum())
                 rows.append(
                     {
                         "method": f"{method}, trained {model}",
                         "versus": f"{method}, trained {REAL_SCENE} model",
-                        **trained.iloc[0][compared].to_dict(),
+                        **trained.iloc[0][[*compared, "rungs"]].to_dict(),
                         "rung": rung,
                         **counts,
-                        "tied_at_floor": floor,
                     }
                 )
     table = pd.DataFrame(rows, columns=columns)

@@ -15,8 +15,8 @@ SENSING_RATE_COLUMNS: dict[str, tuple[str, str]] = {
     "method": ("", "the planning method"),
     "runs": ("1", "runs planned on the sensed hole"),
     "close_runs": ("1", "runs whose policy inserted in at least half its trials"),
-    "farthest_close_m": ("m", "the largest first-sensing error among the close runs"),
-    "nearest_far_m": ("m", "the smallest first-sensing error among the other runs"),
+    "farthest_close_m": ("m", "the largest |x error| of a first sensing among the close runs"),
+    "nearest_far_m": ("m", "the smallest |x error| of a first sensing among the other runs"),
     "close_probability_low": (
         "1",
         "probability that a first sensing lands within farthest_close_m of the hole",
@@ -33,7 +33,7 @@ SENSING_RATE_COLUMNS: dict[str, tuple[str, str]] = {
 
 def close_probability(radius_m: float, bias_m: float, std_m: float) -> float:
     """Probability that a sensing of the hole's x, N(hole + bias, std²), lands within
-    ``radius_m`` of it (eq. 16a's noise)."""
+    ``radius_m`` of it (the sensing noise of eq. 16)."""
     if std_m == 0:
         return float(abs(bias_m) <= radius_m)
     upper, lower = (radius_m - bias_m) / std_m, (-radius_m - bias_m) / std_m
@@ -43,18 +43,19 @@ def close_probability(radius_m: float, bias_m: float, std_m: float) -> float:
 def expected_at_sensing_rate(
     per_run: pd.DataFrame, bias_m: float, std_m: float, success: str = "offset_deploy_success_rate"
 ) -> pd.DataFrame:
-    """Per method, its sensed-hole runs (``per_run.md``'s rows: ``first_sensing_error_m`` and
-    ``success``) split at one distance: those that inserted in at least half their trials all
-    sensed nearer than those that did not. Between the farthest close and the nearest far run
+    """Per method, its sensed-hole runs (``per_run.md``'s rows: ``first_sensing_dx_m`` and
+    ``success``) split at one distance in x, the only one the sensing model draws: those that
+    inserted in at least half their trials all sensed nearer than those that did not. Between the farthest close and the nearest far run
     lies the threshold; at either end, the expected success is P(close) · (the close runs' mean)
     + (1 − P(close)) · (the far runs' mean), P(close) from :func:`close_probability`. A method
     whose runs do not split so, or that has runs on one side only, gets NaN."""
     rows = []
+    per_run = per_run.assign(sensed_off_m=per_run["first_sensing_dx_m"].abs())
     for method, runs in per_run.groupby("method", sort=True):
         close = runs[runs[success] >= 0.5]
         far = runs[runs[success] < 0.5]
-        farthest = float(close["first_sensing_error_m"].max()) if len(close) else math.nan
-        nearest = float(far["first_sensing_error_m"].min()) if len(far) else math.nan
+        farthest = float(close["sensed_off_m"].max()) if len(close) else math.nan
+        nearest = float(far["sensed_off_m"].min()) if len(far) else math.nan
         split = len(close) and len(far) and farthest < nearest
         probability = {
             end: close_probability(radius, bias_m, std_m) if split else math.nan

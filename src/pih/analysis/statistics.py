@@ -1,7 +1,7 @@
 """Intervals and tests over independent runs: Wilson's interval for a success rate, the mean
 of per-run rates with it, and for paired comparisons their counts, the exact two-sided sign test,
-a paired bootstrap interval on the mean difference and the smallest difference the pairs could
-detect (docs/planner.md, "Intervals and tests")."""
+an interval on the mean difference and the smallest difference the pairs could detect
+(docs/planner.md, "Intervals and tests")."""
 
 from __future__ import annotations
 
@@ -12,15 +12,15 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-BOOTSTRAP_RESAMPLES = 9999
-"""Resamples of the paired bootstrap (:func:`paired_difference_interval`)."""
-BOOTSTRAP_SEED = 0
-"""Seed of the paired bootstrap's resampling: the same pairs give the same interval anywhere."""
 SPREAD_FLOOR = 0.1
-"""The least standard deviation of the paired differences :func:`detectable_difference` assumes:
-one trial in ten (pairs all tied show no spread, yet a rerun would)."""
+"""The least standard deviation of the paired differences the interval and the detectable
+difference assume: one trial in ten (pairs all tied show no spread, yet a rerun would)."""
 CEILING = 1.0
 """A run's success fraction when every deployment trial inserted."""
+ALPHA = 0.05
+"""The level of the paired tests and intervals (95 %)."""
+POWER = 0.8
+"""The power at which :func:`detectable_difference` is detected."""
 
 
 def wilson_interval(successes: float, trials: int, z: float = 1.96) -> tuple[float, float]:
@@ -48,16 +48,20 @@ def rate_over_runs(rates: pd.Series) -> tuple[float, float, float]:
     return (rate, *wilson_interval(rate * len(observed), len(observed)))
 
 
-PAIR_STATISTICS_COLUMNS: dict[str, tuple[str, str]] = {
+TIE_COLUMNS: dict[str, tuple[str, str]] = {
     "tied_at_ceiling": ("1", "tied pairs where both inserted in every trial: no difference shows"),
+    "tied_at_floor": ("1", "tied pairs where neither inserted in any trial"),
+}
+"""Units and descriptions of :func:`pair_counts`' ties at either end."""
+TEST_COLUMNS: dict[str, tuple[str, str]] = {
     "difference_ci_low": (
         "1",
         (
-            f"95 % paired bootstrap interval on mean_difference over the pairs (BCa, "
-            f"{BOOTSTRAP_RESAMPLES} resamples, seed {BOOTSTRAP_SEED}), low"
+            f"95 % paired t-interval on mean_difference over the pairs, their spread at least "
+            f"{SPREAD_FLOOR} (docs/planner.md, Intervals and tests), low"
         ),
     ),
-    "difference_ci_high": ("1", "95 % paired bootstrap interval on mean_difference, high"),
+    "difference_ci_high": ("1", "95 % paired t-interval on mean_difference, high"),
     "sign_test_p": ("1", "two-sided exact sign test over the untied pairs (scipy binomtest)"),
     "least_possible_p": (
         "1",
@@ -66,12 +70,14 @@ PAIR_STATISTICS_COLUMNS: dict[str, tuple[str, str]] = {
     "detectable_difference": (
         "1",
         (
-            f"the smallest mean difference a paired t-test at 0.05 detects with 80 % power over "
-            f"these pairs (their spread, at least {SPREAD_FLOOR})"
+            f"the smallest mean difference a paired t-test at {ALPHA} detects with "
+            f"{100 * POWER:.0f} % power over these pairs (their spread at least {SPREAD_FLOOR}); "
+            "NaN where the pairs are too few for the sign test to reach 0.05, or nothing in "
+            "[-1, 1] is detectable"
         ),
     ),
 }
-"""Units and descriptions of :func:`pair_counts`' columns beyond the counts and the mean."""
+"""Units and descriptions of :func:`pair_counts`' interval and tests on the mean difference."""
 
 
 def sign_test_p(better: int, worse: int) -> float:
@@ -87,53 +93,48 @@ def least_sign_test_p(untied: int) -> float:
     return min(1.0, 2.0 ** (1 - untied))
 
 
+def _floored_spread(difference: np.ndarray) -> float:
+    """The pairs' standard deviation, at least :data:`SPREAD_FLOOR`."""
+    return max(float(np.std(difference, ddof=1)), SPREAD_FLOOR)
+
+
 def paired_difference_interval(
-    method: pd.Series | np.ndarray, versus: pd.Series | np.ndarray, confidence: float = 0.95
+    method: pd.Series | np.ndarray, versus: pd.Series | np.ndarray
 ) -> tuple[float, float]:
-    """Interval on the mean over pairs of ``method − versus`` (aligned, one pair a sweep point):
-    scipy's paired BCa bootstrap, :data:`BOOTSTRAP_RESAMPLES` resamples of the pairs drawn from
-    :data:`BOOTSTRAP_SEED`. Pairs that all differ alike have no spread to resample: the interval
-    is that difference."""
-    a, b = np.asarray(method, dtype=float), np.asarray(versus, dtype=float)
-    difference = a - b
-    if len(difference) == 0:
+    """95 % interval on the mean over pairs of ``method − versus`` (aligned, one pair a sweep
+    point): the paired t-interval, mean ± t_{0.975, n−1} · s / √n, with s at least
+    :data:`SPREAD_FLOOR` and the ends clipped to [−1, 1]. Not a bootstrap: over 8–11 pairs a
+    bootstrap interval cannot reach past the differences observed (pairs all tied give a point),
+    and its BCa version excluded 0 where the t-test's p was 0.10 (docs/planner.md). NaN below
+    two pairs."""
+    difference = np.asarray(method, dtype=float) - np.asarray(versus, dtype=float)
+    n = len(difference)
+    if n < 2:
         return (math.nan, math.nan)
-    if np.ptp(difference) == 0:
-        return (float(difference[0]), float(difference[0]))
-    result = stats.bootstrap(
-        (a, b),
-        lambda x, y, axis=-1: np.mean(x - y, axis=axis),
-        paired=True,
-        vectorized=True,
-        n_resamples=BOOTSTRAP_RESAMPLES,
-        confidence_level=confidence,
-        method="BCa",
-        rng=np.random.default_rng(BOOTSTRAP_SEED),
-    )
-    low, high = result.confidence_interval
-    return (float(low), float(high))
+    mean = float(difference.mean())
+    half = stats.t.ppf(1 - ALPHA / 2, n - 1) * _floored_spread(difference) / math.sqrt(n)
+    return (max(-1.0, mean - half), min(1.0, mean + half))
 
 
-def detectable_difference(
-    difference: pd.Series | np.ndarray, alpha: float = 0.05, power: float = 0.8
-) -> float:
+def detectable_difference(difference: pd.Series | np.ndarray) -> float:
     """The smallest mean difference the pairs could detect: a two-sided paired t-test at
-    ``alpha`` rejects it with probability ``power``, (t_{1−α/2} + t_{power}) · s / √n over n − 1
-    degrees of freedom, s the pairs' standard deviation but at least :data:`SPREAD_FLOOR`. NaN
-    below two pairs."""
+    :data:`ALPHA` rejects it with probability :data:`POWER`, (t_{1−α/2} + t_{power}) · s / √n
+    over n − 1 degrees of freedom, s the pairs' standard deviation but at least
+    :data:`SPREAD_FLOOR`. NaN where the headline's sign test could reach no p below α over
+    these pairs (fewer than 6) or where no difference within [−1, 1] is detectable."""
     values = np.asarray(difference, dtype=float)
     n = len(values)
-    if n < 2:
+    if n < 2 or least_sign_test_p(n) > ALPHA:
         return math.nan
-    spread = max(float(np.std(values, ddof=1)), SPREAD_FLOOR)
-    quantiles = stats.t.ppf(1 - alpha / 2, n - 1) + stats.t.ppf(power, n - 1)
-    return float(quantiles * spread / math.sqrt(n))
+    quantiles = stats.t.ppf(1 - ALPHA / 2, n - 1) + stats.t.ppf(POWER, n - 1)
+    detectable = float(quantiles * _floored_spread(values) / math.sqrt(n))
+    return detectable if detectable <= 1 else math.nan
 
 
 def pair_counts(method: pd.Series, versus: pd.Series) -> dict[str, Any]:
     """A paired comparison's columns from two methods' deployment success at the same points
     (aligned; a point either lacks is no pair): how many pairs, better, worse and tied, how many
-    tied at the ceiling (both at 1), the mean difference with its
+    tied at the ceiling (both at 1) and at the floor (both at 0), the mean difference with its
     :func:`paired_difference_interval`, :func:`sign_test_p`, the :func:`least_sign_test_p` its
     untied pairs allow and the :func:`detectable_difference`."""
     both = pd.DataFrame({"a": method, "b": versus}).dropna()
@@ -146,6 +147,7 @@ def pair_counts(method: pd.Series, versus: pd.Series) -> dict[str, Any]:
         "worse": worse,
         "tied": len(difference) - better - worse,
         "tied_at_ceiling": int(((both["a"] == CEILING) & (both["b"] == CEILING)).sum()),
+        "tied_at_floor": int(((both["a"] == 0) & (both["b"] == 0)).sum()),
         "mean_difference": float(difference.mean()) if len(difference) else math.nan,
         "difference_ci_low": low,
         "difference_ci_high": high,

@@ -12,7 +12,7 @@ import math
 import pandas as pd
 
 from pih.analysis.run_summary import NO_MODEL_ERROR, split_keys
-from pih.analysis.statistics import PAIR_STATISTICS_COLUMNS, pair_counts, rate_over_runs
+from pih.analysis.statistics import TEST_COLUMNS, TIE_COLUMNS, pair_counts, rate_over_runs
 from pih.study.points import SIMULATOR_PREFIX
 
 SIMULATED_HOLE_KEY = "planner.simulated_hole"
@@ -61,9 +61,9 @@ TRAINING_MODEL_COLUMNS: dict[str, tuple[str, str]] = {
     "better": ("1", "pairs where this training model's run deployed more often on the real scene"),
     "worse": ("1", "pairs where it deployed less often"),
     "tied": ("1", "pairs with equal deployment success"),
-    "tied_at_ceiling": PAIR_STATISTICS_COLUMNS["tied_at_ceiling"],
+    **TIE_COLUMNS,
     "mean_difference": ("1", "mean over pairs of its success minus the twin's"),
-    **{k: v for k, v in PAIR_STATISTICS_COLUMNS.items() if k != "tied_at_ceiling"},
+    **TEST_COLUMNS,
 }
 
 

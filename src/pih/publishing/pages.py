@@ -84,7 +84,7 @@ def _training_model_block(tables: Path, source: str, markers: tuple[str, str]) -
     std = table["start_std_m"].iloc[0] if len(table) else 0.0
     source += (
         f"; deployment success from starts {1e3 * std:g} mm off, 95 % interval over runs, and "
-        "sign test over the untied pairs:"
+        "the pairs with the twins (docs/planner.md, Intervals and tests):"
     )
     return "\n\n".join(
         [

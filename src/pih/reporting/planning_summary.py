@@ -116,7 +116,7 @@ def write_planning_summary(
     )
     if tables.ladder is not None:
         plots.save(
-            plots.ladder_figure(tables.ladder),
+            plots.ladder_figure(tables.ladder, compared_keys(sweep_keys)),
             directory / "fig_ladder.png",
             provenance=record,
         )

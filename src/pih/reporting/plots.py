@@ -342,16 +342,15 @@ def deploy_success_figure(success: pd.DataFrame, robustness: pd.DataFrame) -> pl
     return fig
 
 
-def ladder_figure(ladder: pd.DataFrame) -> plt.Figure:
+def ladder_figure(ladder: pd.DataFrame, compared: list[str]) -> plt.Figure:
     """The deployment ladder's picture (:func:`pih.analysis.ladder.ladder_table`): each method's
     deployment success against how far the real hole moved after training, with its 95 %
-    interval over runs, 0 the training scene from the same offset starts; one panel per level of
-    the compared dimensions. Where the fixed goals fall below one-level's line, its fresh
+    interval over runs, 0 the training scene from the same offset starts; one panel per joint
+    level of the ``compared`` dimensions. Where the fixed goals fall below one-level's line, its fresh
     sensing (which moves with the hole) has overtaken them."""
     holes = ladder[ladder["hole_shift_m"].notna()]
     std = holes.loc[holes["hole_shift_m"] != 0, "start_std_m"]
     holes = holes[holes["start_std_m"] == (std.iloc[0] if len(std) else holes["start_std_m"].min())]
-    compared = [c for c in ladder.columns if c.startswith("planner.") or c == "variant"]
     panels = list(holes.groupby(compared)) if compared else [((), holes)]
     fig, axes = plt.subplots(
         1, len(panels), figsize=(4.2 * len(panels) + 1.6, 3.6), sharey=True, squeeze=False

@@ -284,7 +284,7 @@ def step_pairs(paired: pd.DataFrame, robustness: pd.DataFrame) -> pd.DataFrame:
         ):
             table[name] = evidence[column].where(whole, "—")
         if step == own_step:
-            for column in ("tied at 10 of 10", "detectable"):
+            for column in ("tied at the ceiling", "detectable"):
                 table[f"{column} at {at}"] = evidence[column].where(whole, "—")
     return table
 
@@ -293,18 +293,23 @@ def _signed(value: float) -> str:
     return f"{value:+.2f}".replace("+0.00", "0.00").replace("-0.00", "0.00")
 
 
+def _detectable(value: float) -> str:
+    return f"{value:.2f}" if np.isfinite(value) else "—"
+
+
 def pair_evidence(rows: pd.DataFrame) -> pd.DataFrame:
     """Paired rows (:func:`pih.analysis.statistics.pair_counts`' columns) as a reader weighs
     them: the signs, the pairs tied at the ceiling, the mean difference with its 95 % interval,
     the sign test's p beside the least its untied pairs allow, and the smallest difference the
-    pairs could detect."""
+    pairs could detect ("—": too few pairs for the sign test to reach 0.05, or none within
+    [−1, 1])."""
     keep = [c for c in rows.columns if c in ("level", "method", "versus", "pairs")]
     return rows[keep].assign(
         **{
             "better / worse / tied": [
                 f"{r.better} / {r.worse} / {r.tied}" for r in rows.itertuples()
             ],
-            "tied at 10 of 10": rows["tied_at_ceiling"],
+            "tied at the ceiling": rows["tied_at_ceiling"],
             "difference (95 % CI)": [
                 f"{_signed(r.mean_difference)} ({_signed(r.difference_ci_low)} to "
                 f"{_signed(r.difference_ci_high)})"
@@ -313,7 +318,7 @@ def pair_evidence(rows: pd.DataFrame) -> pd.DataFrame:
             "p (least possible)": [
                 f"{r.sign_test_p:.3g} ({r.least_possible_p:.3g})" for r in rows.itertuples()
             ],
-            "detectable": [f"{r.detectable_difference:.2f}" for r in rows.itertuples()],
+            "detectable": [_detectable(r.detectable_difference) for r in rows.itertuples()],
         }
     )
 
@@ -361,7 +366,17 @@ def training_model_rows(table: pd.DataFrame) -> pd.DataFrame:
                 "vs twin trained on the real scene's model: better / worse / tied": (
                     f"{row.better} / {row.worse} / {row.tied}" if paired else "—"
                 ),
-                "p": row.sign_test_p if paired else "—",
+                "tied at the ceiling": row.tied_at_ceiling if paired else "—",
+                "difference (95 % CI)": (
+                    f"{_signed(row.mean_difference)} ({_signed(row.difference_ci_low)} to "
+                    f"{_signed(row.difference_ci_high)})"
+                    if paired
+                    else "—"
+                ),
+                "p (least possible)": (
+                    f"{row.sign_test_p:.3g} ({row.least_possible_p:.3g})" if paired else "—"
+                ),
+                "detectable": _detectable(row.detectable_difference) if paired else "—",
                 "median run (s)": row.median_run_s,
             }
         )
@@ -437,10 +452,10 @@ the success tolerance of the true hole (median over runs; blank: in fewer than h
 
 Paired from starts {sigma} off, over the sweep points both methods ran (the same random draws):
 at how many `method` deployed more often than `versus`, less often or equally, and how many of
-the ties were both at 10 of 10 (a ceiling that hides any difference); the mean difference with
-a 95 % paired bootstrap interval; a two-sided exact sign test over the untied pairs, beside the
-least p their number allows; the smallest mean difference the pairs could detect (a paired
-t-test at 0.05 with 80 % power; docs/planner.md, "Intervals and tests").
+the ties were both inserting in every trial (a ceiling that hides any difference); the mean
+difference with a 95 % paired t-interval; a two-sided exact sign test over the untied pairs,
+beside the least p their number allows; the smallest mean difference the pairs could detect (a
+paired t-test at 0.05 with 80 % power; docs/planner.md, "Intervals and tests").
 
 {markdown_table(pair_evidence(perturbed_pairs(paired, robustness)), "{:.3g}")}
 
