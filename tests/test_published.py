@@ -12,7 +12,7 @@ import pytest
 from pih.__main__ import main
 from pih.analysis.statistics import sign_test_p
 from pih.planning.run_record import RecordedRun
-from pih.publishing.pages import README_BEGIN, README_END, results_block
+from pih.publishing.pages import DEFAULT_BEGIN, DEFAULT_END, results_block
 from pih.publishing.published import (
     PUBLISHED_DIR,
     PUBLISHED_STUDIES,
@@ -160,7 +160,7 @@ def test_publish_refuses_a_tree_that_is_not_the_studys_run(tmp_path, capsys, mon
     shutil.copytree(ROOT / "config", tmp_path / "config")
     (tmp_path / "published" / "default").mkdir(parents=True)
     (tmp_path / "published" / "default" / "kept.md").write_text("before")
-    readme = f"# pih\n{README_BEGIN}\nold\n{README_END}\n"
+    readme = f"# pih\n{DEFAULT_BEGIN}\nold\n{DEFAULT_END}\n"
     (tmp_path / "docs").mkdir()
     (tmp_path / "docs" / "workflow.md").write_text(readme)
     monkeypatch.chdir(tmp_path)
@@ -215,13 +215,13 @@ def test_readme_results_are_generated_from_the_published_tables(tmp_path):
     for name, frame in (("success", _success()), ("robustness", _robustness()), ("paired", paired)):
         write_table(frame, summary / f"{name}.parquet", provenance, units(frame))
     block = results_block(tmp_path)
-    assert block.startswith(README_BEGIN) and block.endswith(README_END)
+    assert block.startswith(DEFAULT_BEGIN) and block.endswith(DEFAULT_END)
     assert "0.80 (0.50–0.95)" in block  # the headline from offset starts
     assert (
         "| bilevel/deepest_explored | one_level | 11 | 8 / 1 / 2 | 1 | +0.50 (+0.25 to +0.70) "
         "| 0.039 (0.00391) | 0.25 |" in block
     )
-    readme = f"# pih\n\n## Results\n\n{README_BEGIN}\nold\n{README_END}\n\nafter\n"
+    readme = f"# pih\n\n## Results\n\n{DEFAULT_BEGIN}\nold\n{DEFAULT_END}\n\nafter\n"
     updated = readme_with_results(readme, block)
     assert "old" not in updated and block in updated and updated.endswith("after\n")
     assert readme_with_results(updated, block) == updated

@@ -214,8 +214,10 @@ def _rows(path: Path, keys: tuple[str, ...], numbers: tuple[str, ...]) -> dict[s
 
 
 def redeployed(tree: Path) -> set[tuple[float, str]] | None:
-    """The deployments a tree's config asked for, (start std, model error) as its robustness
-    table lists them (the runs' own and every redeployment); None without that table."""
+    """The deployments a tree holds, (start std, model error) as its robustness table lists them
+    (the runs' own and every redeployment): what its config asked for, since a workflow run
+    makes every redeployment its config asks for before its tables, a failed rollout recorded as
+    data; None without that table."""
     path = tree / ROBUSTNESS
     if not path.is_file():
         return None

@@ -13,7 +13,7 @@ import pandas as pd
 from pih.publishing.published import PUBLISHED_STUDIES, PublishedStudy, published_runs
 from pih.records.outputs import read_provenance, write_text
 
-README_BEGIN, README_END = PUBLISHED_STUDIES["default"].markers
+DEFAULT_BEGIN, DEFAULT_END = PUBLISHED_STUDIES["default"].markers
 
 
 def results_block(published: Path, study: PublishedStudy = PUBLISHED_STUDIES["default"]) -> str:
