@@ -199,8 +199,11 @@ def deployment_reference(root: Path = Path()) -> pd.DataFrame:
         if made["rollout_code_sha256"] not in current_hashes():
             print(f"{replay}: replayed by other rollout code ({made['code_version']})")
         run = RecordedRun.read(path)
-        rows = deployment_trials(path.parent, run.rollouts)
         replayed = pd.read_parquet(replay)
+        # The sources the replay holds: a redeployment added after it (the ladder's wider
+        # starts) is not the headline's.
+        rows = deployment_trials(path.parent, run.rollouts)
+        rows = rows[rows["source"].isin(set(replayed["source"]))].reset_index(drop=True)
         if not rows[KEYS].equals(replayed[KEYS]):
             raise SystemExit(f"{replay}: not the deployment trials {path.parent.name} holds")
         deployed = (rows["phase"] == "deploy").to_numpy()
