@@ -313,6 +313,27 @@ def test_summary_names_the_code_version_and_links_the_tables():
     assert "Not the default study" not in summary({}, study | {"default": True})
     assert "- [success](planning/s.md)" in text
     assert text.index("Would the learned policy insert") < text.index("Whitney")
+    # Every σ the text shows names the key it comes from: the runs' own offset deployment
+    # (the smoke study's 0.5 mm) or a redeployment's; the model errors' from starts 1 mm off.
+    assert "N(0, (1 mm)²) in x and y (`robustness.start_std_m`)" in text
+    own = _robustness().assign(start_std_m=[0.0005, 0.0005, 0.0005, 0.001])
+    errors = _robustness().iloc[:1].assign(start_std_m=0.001, model_error="friction_0_5")
+    robustness = pd.concat([own.assign(model_error="none"), errors], ignore_index=True)
+    paired_errors = paired.iloc[:1].assign(dimension="model_error", level="friction_0_5")
+    smoke = summary_markdown(
+        _comparison(),
+        variants,
+        _success(),
+        pd.concat([paired, paired_errors]),
+        robustness,
+        "abc123",
+        {},
+        study | {"deploy_start_std_m": 0.0005},
+    )
+    assert "N(0, (0.5 mm)²) in x and y (`planner.deploy_start_std_m`)" in smoke
+    assert "(`robustness.model_error`), from starts 1 mm off (the smallest" in " ".join(
+        smoke.split()
+    )
 
 
 def test_summary_reads_the_first_hydroelastic_variant_and_lists_the_rules_choices():

@@ -96,6 +96,7 @@ STUDY = {
     "iterations": config["planner"]["iterations"],
     "rollouts_per_iteration": config["planner"]["optimizer"]["population_size"],
     "deploy_trials": config["planner"]["deploy_trials"],
+    "deploy_start_std_m": config["planner"]["deploy_start_std_m"],
     "planning_runs": len(POINTS),
 }
 
