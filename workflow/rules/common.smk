@@ -15,7 +15,7 @@ from pih.study.config import (
     study_points,
     validation_scenes,
 )
-from pih.study.schema import check_schema
+from pih.study.schema import check_schema, typed_command_line
 
 # Stop before any job runs if the config is malformed (schema) or out of range (library), with
 # one line naming the file or the dotted key (and the variant).
@@ -24,9 +24,10 @@ with stop_on_config_error():
     read_config_files(
         config, workflow.configfiles, workflow.overwrite_configfiles or []
     )
-    check_schema(
-        config, os.path.join(workflow.basedir, "workflow/schemas/config.schema.json")
-    )
+    SCHEMA = os.path.join(workflow.basedir, "workflow/schemas/config.schema.json")
+    # --config 'planner={"iterations": 5}': Snakemake passes the nested leaves as strings.
+    typed_command_line(config, workflow.config_settings.config or {}, SCHEMA)
+    check_schema(config, SCHEMA)
     validate(config, "../schemas/config.schema.json")
     # Sweep: each key a dotted config path, each value its levels; a run's directory is named
     # by the last path components and levels (planning_space). At most max_sweep_points

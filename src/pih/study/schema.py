@@ -138,6 +138,51 @@ def check_schema(config: Mapping[str, Any], schema: Mapping[str, Any] | str | No
         raise ConfigError(schema_message(error))
 
 
+def _schema_types(schema: Mapping[str, Any]) -> set[str]:
+    """The JSON types a schema node admits (its ``type``, ``enum`` values', ``anyOf``'s)."""
+    if "type" in schema:
+        kind = schema["type"]
+        return {kind} if isinstance(kind, str) else set(kind)
+    if "enum" in schema:
+        return {"string" if isinstance(v, str) else "number" for v in schema["enum"]}
+    return set().union(*(_schema_types(s) for s in schema.get("anyOf", schema.get("oneOf", []))))
+
+
+def typed_command_line(
+    config: dict[str, Any],
+    command_line: Mapping[str, Any],
+    schema: Mapping[str, Any] | str | None = None,
+) -> None:
+    """Type the ``--config`` values in ``config`` through the schema, in place. Snakemake passes
+    a nested value (``--config 'planner={"iterations": 5}'``) with every leaf a string; a leaf the
+    schema does not admit as a string is read as a YAML scalar or flow list (``5``, ``0.5``,
+    ``true``, ``[0, 1]``; ``yaml.safe_load``, never code) wherever its key is known. Values from
+    config files keep their own type: a quoted number there is still an error."""
+    import json
+
+    import yaml
+
+    if isinstance(schema, str):
+        with open(schema) as handle:
+            schema = json.load(handle)
+    schema = config_schema() if schema is None else schema
+
+    def walk(given: Mapping[str, Any], target: dict[str, Any], node: Mapping[str, Any]) -> None:
+        for key, value in given.items():
+            if key not in node.get("properties", {}) or key not in target:
+                continue
+            child = node["properties"][key]
+            if isinstance(value, Mapping) and isinstance(target[key], dict):
+                walk(value, target[key], child)
+            elif isinstance(value, str) and "string" not in _schema_types(child):
+                try:
+                    target[key] = yaml.safe_load(value)
+                except yaml.YAMLError:
+                    pass  # left as given: the schema check names the key
+
+    walk(command_line, config, schema)
+
+
 def _short(value: Any, width: int = 60) -> str:
     text = repr(value)
     return text if len(text) <= width else text[: width - 4] + " ..."
