@@ -1,6 +1,7 @@
 """The command line: `pih show` and `pih provenance`, on good and bad files."""
 
 import copy
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -477,3 +478,22 @@ def test_a_reader_that_stops_early_ends_the_command_quietly():
     process.stdout.close()
     assert process.wait(timeout=120) == 0
     assert process.stderr.read() == b""
+
+
+def test_readmes_picture_is_the_default_studys_scene(tmp_path):
+    """README's picture (docs/scene.png, ``pih scene``) records the scene and start it drew:
+    today's default study's, or it is stale. ``pih scene`` draws another study's too, and a
+    missing config file is one line."""
+    from pih.records.outputs import read_output_provenance
+    from pih.study.config import load_config
+
+    config = load_config([str(ROOT / "config" / "config.yaml")])
+
+    drawn = read_output_provenance(ROOT / "docs" / "scene.png")["config"]
+    assert drawn["scene"] == json.loads(json.dumps(config["scene"]))
+    assert drawn["planner"] == {k: config["planner"][k] for k in ("start_x_m", "start_height_m")}
+    output = tmp_path / "scene.png"
+    configs = [str(ROOT / "config" / "config.yaml"), str(ROOT / "config" / "smoke.yaml")]
+    assert main(["scene", "--configfile", *configs, "--output", str(output)]) == 0
+    assert output.read_bytes().startswith(b"\x89PNG")
+    assert main(["scene", "--configfile", str(tmp_path / "nosuch.yaml")]) == 1

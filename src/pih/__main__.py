@@ -131,6 +131,17 @@ def main(argv: list[str] | None = None) -> int:
     plot = commands.add_parser("plot", help="cost curve and best paths of one planning run")
     plot.add_argument("run", type=Path, help="a results/planning/<sweep point>/ directory")
     plot.add_argument("--output", type=Path, help="the PNG to write (default RUN_DIR/run.png)")
+    drawn = commands.add_parser(
+        "scene", help="draw a study's scene: peg, hole, spring and robot frame (README's picture)"
+    )
+    drawn.add_argument(
+        "--configfile",
+        type=Path,
+        nargs="+",
+        default=[Path("config/config.yaml")],
+        help="the study's config files, as given to Snakemake (default config/config.yaml)",
+    )
+    drawn.add_argument("--output", type=Path, default=Path("scene.png"), help="the PNG to write")
     replay = commands.add_parser(
         "replay", help="simulate recorded rollouts again (one line each; the first to Rerun)"
     )
@@ -279,6 +290,10 @@ def _run(args: argparse.Namespace) -> int:
         from pih.cli.plot import plot
 
         return plot(args.run, args.output)
+    if args.command == "scene":
+        from pih.cli.scene import scene
+
+        return scene(args.configfile, args.output)
     if args.command == "replay":
         from pih.cli.replay import replay
 

@@ -342,6 +342,66 @@ def deploy_success_figure(success: pd.DataFrame, robustness: pd.DataFrame) -> pl
     return fig
 
 
+def scene_figure(scene: Any, start_x_m: float, start_height_m: float) -> plt.Figure:
+    """The planar scene at a glance (paper Fig. 2): the hole's chamfered walls and its frame H,
+    the peg at its start (tip P2 ``start_height_m`` above the top surface, centre at
+    ``start_x_m``) and inserted, and the virtual robot's frame R pulling the peg's top centre P1
+    through the spring K = diag(k_x, k_y, k_θ)."""
+    hole, peg = scene.hole, scene.peg
+    top = hole.y_m + hole.depth_m
+    fig, ax = plt.subplots(figsize=(7.5, 3.6), layout="constrained")
+    for wall in hole_outline(hole):
+        ax.fill(1e3 * wall[:, 0], 1e3 * wall[:, 1], color="tab:brown", alpha=0.35, lw=1)
+    half, length = peg.diameter_m / 2, peg.length_m
+    poses = (
+        (start_x_m, top + start_height_m, "peg at its start", 1.0),
+        (hole.x_m, hole.y_m, "inserted: P2 at H", 0.35),
+    )
+    for x, tip_y, label, alpha in poses:
+        outline = np.array([[-half, 0], [half, 0], [half, length], [-half, length], [-half, 0]])
+        ax.fill(
+            1e3 * (x + outline[:, 0]),
+            1e3 * (tip_y + outline[:, 1]),
+            color="tab:blue",
+            alpha=0.5 * alpha,
+            lw=1,
+            label=label,
+        )
+    x, tip_y = start_x_m, top + start_height_m
+    p1 = np.array([x, tip_y + length])
+    r = p1 + [0.008, 0.004]
+    coils = np.linspace(0, 1, 41)
+    zigzag = np.outer(coils, r - p1) + p1
+    normal = np.array([-(r - p1)[1], (r - p1)[0]]) / np.linalg.norm(r - p1)
+    zigzag += np.outer(0.0012 * np.sin(coils * 8 * np.pi) * (coils > 0.1) * (coils < 0.9), normal)
+    ax.plot(1e3 * zigzag[:, 0], 1e3 * zigzag[:, 1], color="tab:green", lw=1.2)
+    for point, name, offset in (
+        (p1, "P1 (peg top centre)", (-80, 6)),
+        ((x, tip_y), "P2 (tip)", (-40, -10)),
+        (
+            r,
+            "R: the virtual robot, pulling P1\nthrough the spring K = diag(k_x, k_y, k_θ)",
+            (8, -4),
+        ),
+        ((hole.x_m, hole.y_m), "H", (6, -10)),
+    ):
+        ax.plot(1e3 * point[0], 1e3 * point[1], "k.", ms=5)
+        ax.annotate(
+            name, 1e3 * np.asarray(point), xytext=offset, textcoords="offset points", fontsize=7
+        )
+    ax.set_xlim(1e3 * (start_x_m - 0.02), 1e3 * (hole.x_m + 0.045))
+    ax.set_ylim(1e3 * (hole.y_m - 0.005), 1e3 * (top + start_height_m + length + 0.012))
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.legend(fontsize=7, loc="center right")
+    ax.set_title(
+        "The planar peg-in-hole scene (x, y, θ): the robot's path is what the planner learns",
+        fontsize=9,
+    )
+    return fig
+
+
 def ladder_figure(ladder: pd.DataFrame, compared: list[str]) -> plt.Figure:
     """The deployment ladder's picture (:func:`pih.analysis.ladder.ladder_table`): each method's
     deployment success against how far the real hole moved after training, with its 95 %
