@@ -82,8 +82,12 @@ def test_identical_trees_reproduce_at_both_levels(tmp_path, capsys):
     assert result.conclusions_hold and len(result.checks) == 2 + 1 and result.causes == []
     assert main(["compare", str(old), str(new)]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[0] == "data: 0 of 18 items differ: the same (within --rtol 1e-09)"
-    assert out[1].startswith("conclusions: 3 of 3 hold") and out[1].endswith(
+    # The answer first, in one line; the closing lines as before.
+    assert out[0] == (
+        f"pih compare: {new} reproduced {old}: 3 of 3 conclusions hold, 0 of 18 data items differ"
+    )
+    assert out[1] == "data: 0 of 18 items differ: the same (within --rtol 1e-09)"
+    assert out[2].startswith("conclusions: 3 of 3 hold") and out[2].endswith(
         "reproduced " + str(old)
     )
 
@@ -96,7 +100,7 @@ def test_changed_data_with_the_same_conclusions_reproduce(tmp_path, capsys):
     run_file(new / "planning" / "start~-0.03_seed~0" / "rollouts.parquet", -0.03, success=False)
     (new / "planning" / "start~-0.04_seed~0" / "rollouts.parquet").unlink()
     assert main(["compare", str(old), str(new)]) == 0  # 0.7 is inside [0.5, 0.94]
-    out = capsys.readouterr().out.splitlines()
+    out = capsys.readouterr().out.splitlines()[1:]
     assert out[:3] == [
         (
             "planning/summary/robustness.parquet: method=bilevel/deepest_explored, "
@@ -133,6 +137,7 @@ def test_a_rate_outside_the_interval_or_a_flipped_pair_is_not_reproduced(tmp_pat
         for line in out
     )
     assert out[-1].startswith("conclusions: 1 of 3 hold") and "NOT reproduced" in out[-1]
+    assert out[0].startswith(f"pih compare: {new} NOT reproduced {old}: 1 of 3 conclusions hold")
 
 
 def test_a_missing_row_counts_every_number_it_holds(tmp_path):
@@ -178,7 +183,18 @@ def test_the_likely_cause_of_a_data_difference_comes_from_the_provenance(tmp_pat
     causes = next(line for line in out if line.startswith("data: likely causes"))
     assert f"another Drake (1.51.1 -> {now['packages']['drake']})" in causes
     assert f"another CPU (not recorded -> {now['machine']['cpu']})" in causes
-    assert "rollout code" not in causes
+    assert "rollout code" not in causes and "another config" not in causes
+    # Runs made with other settings (another study's config): said first, in the first line.
+    for start in (-0.04, -0.03):
+        path = old / "planning" / f"start~{start}_seed~0" / "rollouts.parquet"
+        point = {"planner.start_x_m": start, "planner.goal": "deepest_explored"}
+        made = record("plan", point=point, config={"planner": {"iterations": 3}})
+        write_table(pd.read_parquet(path), path, made, {"phase": ("", "p"), "success": ("1", "s")})
+    main(["compare", str(old), str(new)])
+    first = capsys.readouterr().out.splitlines()[0]
+    assert (
+        first.startswith("pih compare: ") and "likely causes: another config in 2 of the 2" in first
+    )
 
 
 def test_a_tree_of_an_older_version_reproduces_on_what_both_record(tmp_path, capsys):

@@ -17,6 +17,15 @@ def compare(old: Path, new: Path, rtol: float, r_tolerance: float) -> int:
     except (OSError, ValueError) as error:
         print(f"pih compare: {first_line(error)}", file=sys.stderr)
         return 1
+    failed = [check for check in result.checks if not check.holds]
+    verdict = "reproduced" if result.conclusions_hold else "NOT reproduced"
+    causes = f"; likely causes: {'; '.join(result.causes)}" if result.causes else ""
+    # The answer first, in one line: the details below can run to hundreds of lines.
+    print(
+        f"pih compare: {new} {verdict} {old}: {len(result.checks) - len(failed)} of "
+        f"{len(result.checks)} conclusions hold, {result.differing_items()} of {result.items} "
+        f"data items differ{causes}"
+    )
     if result.scope:
         print(f"scope: {result.scope}")
     for difference in result.differences:
@@ -26,10 +35,8 @@ def compare(old: Path, new: Path, rtol: float, r_tolerance: float) -> int:
     print(f"data: {result.differing_items()} of {result.items} items differ: {data} ({within})")
     if result.causes:
         print(f"data: likely causes, from the provenance: {'; '.join(result.causes)}")
-    failed = [check for check in result.checks if not check.holds]
     for check in failed:
         print(check)
-    verdict = "reproduced" if result.conclusions_hold else "NOT reproduced"
     print(
         f"conclusions: {len(result.checks) - len(failed)} of {len(result.checks)} hold "
         f"(deployment success inside the 95 % intervals, paired signs, validation r within "

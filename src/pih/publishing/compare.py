@@ -535,11 +535,25 @@ def likely_causes(old: Path, new: Path) -> list[str]:
         made.append(
             {f: ", ".join(sorted({r[f] for r in records})) for f in records[0]} if records else {}
         )
-    return [
+    causes = [
         f"another {field} ({made[0][field]} -> {made[1][field]})"
         for field in made[0]
         if field in made[1] and made[0][field] != made[1][field]
     ]
+    before, after = (
+        {name: f for name, f in run_files(tree).items() if f.name == "rollouts.parquet"}
+        for tree in (old, new)
+    )
+    shared = sorted(set(before) & set(after))
+    configs = [
+        name
+        for name in shared
+        if read_provenance(before[name]).get("config_sha256")
+        != read_provenance(after[name]).get("config_sha256")
+    ]
+    if configs:
+        causes.insert(0, f"another config in {len(configs)} of the {len(shared)} runs both hold")
+    return causes
 
 
 def compare(
