@@ -497,3 +497,27 @@ def test_readmes_picture_is_the_default_studys_scene(tmp_path):
     assert main(["scene", "--configfile", *configs, "--output", str(output)]) == 0
     assert output.read_bytes().startswith(b"\x89PNG")
     assert main(["scene", "--configfile", str(tmp_path / "nosuch.yaml")]) == 1
+
+
+def test_every_command_and_argument_says_what_it_is(capsys):
+    """``pih COMMAND --help`` opens with what the command does, and every positional argument
+    has its help (a newcomer's first look at each command)."""
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    listing = capsys.readouterr().out
+    commands = sorted(set(listing.split("{", 1)[1].split("}", 1)[0].split(",")))
+    assert "publish" in commands and "scene" in commands
+    for command in commands:
+        with pytest.raises(SystemExit):
+            main([command, "--help"])
+        text = capsys.readouterr().out
+        description = text.split("\n\n")[1]
+        assert description.strip() and not description.startswith(("positional", "options")), (
+            command
+        )
+        positional = text.split("positional arguments:\n", 1)
+        if len(positional) > 1:
+            for line in positional[1].split("\n\n", 1)[0].splitlines():
+                if line.startswith("  ") and not line.startswith("   "):
+                    name, *about = line.split(maxsplit=1)
+                    assert about or name.startswith("{"), f"pih {command}: {name} has no help"

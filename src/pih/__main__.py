@@ -265,6 +265,10 @@ def main(argv: list[str] | None = None) -> int:
         "target", help="an output path, e.g. results/validation/point_1e7/offset_m~0.001.parquet"
     )
     job.add_argument("--configfile", nargs="+", help="config files (default config/config.yaml)")
+    # `pih COMMAND --help` opens with what the command does, as `pih --help` lists it.
+    for listed in commands._choices_actions:
+        command = commands.choices[listed.dest]
+        command.description = command.description or listed.help
     args = parser.parse_args(argv)
     return _run(args)
 
