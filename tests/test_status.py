@@ -138,7 +138,12 @@ def test_study_status_reads_a_running_study(tmp_path, smoke):
     write(tmp_path / "benchmarks" / "validation" / f"{validation[0]}.tsv", "s\tcpu_time\n31\t30\n")
     lock(tmp_path)
     study_line, planning_line, validation_line = study_status(tmp_path, CONFIGS)
-    assert study_line.endswith("config/smoke.yaml): Snakemake running")
+    assumed = (
+        "; time left at 2 jobs in parallel, assumed (the runs running now, at least 2; --jobs N "
+        "to say)"
+    )
+    assert study_line.endswith(f"config/smoke.yaml): Snakemake running{assumed}")
+    assert study_status(tmp_path, CONFIGS, jobs=3)[0].endswith("Snakemake running")
     assert planning_line.startswith(
         "planning 3 of 6 runs done, 2 running (iteration 7/14, starting), 1 pending; ≈ "
     )
@@ -147,7 +152,7 @@ def test_study_status_reads_a_running_study(tmp_path, smoke):
     # Without Snakemake's lock the runs with a log and no output were interrupted.
     (tmp_path / ".snakemake" / "locks" / "0.input.lock").unlink()
     lines = study_status(tmp_path, CONFIGS)
-    assert lines[0].endswith("no Snakemake running there") and "2 stopped" in lines[1]
+    assert lines[0].endswith(f"no Snakemake running there{assumed}") and "2 stopped" in lines[1]
 
 
 def test_cli_prints_the_lines_and_names_a_missing_directory(tmp_path, capsys, monkeypatch):
@@ -156,7 +161,8 @@ def test_cli_prints_the_lines_and_names_a_missing_directory(tmp_path, capsys, mo
     out = capsys.readouterr().out.splitlines()
     assert out[0] == (
         f"study in {tmp_path} (config config/config.yaml, config/smoke.yaml): "
-        "no Snakemake running there"
+        "no Snakemake running there; time left at 2 jobs in parallel, assumed (the runs running "
+        "now, at least 2; --jobs N to say)"
     )
     assert out[1].startswith("planning 0 of 6 runs done, 6 pending")
     assert out[2].startswith("validation 0 of 2 runs done, 2 pending")

@@ -272,8 +272,14 @@ def study_status(study: Path, configfiles: Sequence[str], jobs: int | None = Non
     names = ", ".join(_shown(Path(f)) for f in configfiles)
     place = _shown(study)
     where = f"study in {Path.cwd() if place == '.' else place} (config {names}): "
+    assumed = (
+        ""
+        if jobs
+        else f"; time left at {slots} jobs in parallel, assumed (the runs running now, at least "
+        f"{DEFAULT_JOBS}; --jobs N to say)"
+    )
     return [
-        where + ("Snakemake running" if running else "no Snakemake running there"),
+        where + ("Snakemake running" if running else "no Snakemake running there") + assumed,
         summary_line("planning", planning, slots),
         summary_line("validation", validation, slots),
     ]
