@@ -8,14 +8,18 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
+import textwrap
+import time
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
 from pih.__main__ import main
+from pih.analysis.run_summary import run_seconds
 from pih.publishing.equivalence import add_row, chained, current_hashes, read_record
 from pih.publishing.published import (
     PUBLISHED_DIR,
@@ -233,6 +237,45 @@ def test_the_suite_is_the_published_configurations_without_start_and_seed():
         means = rollouts[(rollouts["phase"] == "mean") & rollouts["success"]]
         assert item.iterations == means["iteration"].min() + 1 < 50, item
         assert item.outputs[-1] == "redeploy_start_std_m~0.001.parquet"
+        # Its time, for pih verify's first line: the recorded run's for its iterations.
+        assert item.estimate_s == pytest.approx(run_seconds(path) * item.iterations / 50)
+        assert 0 < item.estimate_s < run_seconds(path)
+
+
+def test_ending_pih_verify_ends_its_children_and_removes_its_scratch(tmp_path):
+    """SIGTERM (or SIGHUP) to pih verify: the version's snakemake still running is ended with
+    the jobs it started (its process group), and the scratch directory goes with the stack."""
+    script = tmp_path / "verify.py"
+    script.write_text(
+        textwrap.dedent(
+            """
+            import sys, tempfile, threading, time
+            from pathlib import Path
+            from pih.cli.verify import stop_on_signals
+            from pih.publishing.verification import _child
+
+            stop_on_signals()
+            with tempfile.TemporaryDirectory(prefix="pih-verify-", dir=sys.argv[1]) as scratch:
+                command = ["bash", "-c", "sleep 300 & echo $! > " + scratch + "/job; wait"]
+                worker = threading.Thread(target=_child, args=(command, Path(scratch)))
+                worker.start()
+                while not (Path(scratch) / "job").exists():
+                    time.sleep(0.05)
+                print((Path(scratch) / "job").read_text().strip(), flush=True)
+                worker.join()
+            """
+        )
+    )
+    process = subprocess.Popen(
+        [sys.executable, str(script), str(tmp_path)], stdout=subprocess.PIPE, text=True
+    )
+    job = int(process.stdout.readline())
+    process.send_signal(signal.SIGTERM)
+    assert process.wait(timeout=30) == 128 + signal.SIGTERM
+    assert not list(tmp_path.glob("pih-verify-*"))  # the scratch directory is gone
+    time.sleep(0.2)
+    with pytest.raises(ProcessLookupError):  # the child's job is ended with it
+        os.kill(job, 0)
 
 
 def test_pih_verify_refuses_bad_input_in_one_line(tmp_path, capsys):

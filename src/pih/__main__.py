@@ -250,6 +250,11 @@ def main(argv: list[str] | None = None) -> int:
         nargs="*",
         help="published study directories (default: every one, e.g. published/paper)",
     )
+    equivalent.add_argument(
+        "--stop-at-difference",
+        action="store_true",
+        help="run no item after the first whose outputs differ (the answer is then no)",
+    )
     watch = commands.add_parser(
         "status", help="a study's progress: runs done, running and pending, and the time left"
     )
@@ -325,7 +330,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.command == "verify":
         from pih.cli.verify import verify
 
-        return verify(args.studies)
+        return verify(args.studies, args.stop_at_difference)
     from pih.study.schema import config_markdown, config_schema
 
     schema_json = json.dumps(config_schema(), indent=2) + "\n"

@@ -20,11 +20,14 @@ import io
 import json
 import math
 import os
+import signal
 import subprocess
 import sys
 import tarfile
 import tempfile
+import threading
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from contextlib import suppress
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -65,6 +68,8 @@ class Item:
     """The offset redeployment's file name (empty when the study makes none)."""
     recorded: str
     """The recorded run's directory (under ``planning/``)."""
+    estimate_s: float = math.nan
+    """Roughly how long the item runs: the recorded run's wall time for its iterations."""
 
     @property
     def run(self) -> str:
@@ -116,6 +121,7 @@ def suite(studies: Iterable[Study], root: Path) -> list[Item]:
     recorded run whose mean inserted earliest, for one iteration past that (the shortest run
     that reaches the insertion branches; 2 iterations where no run's mean inserted), named by
     its method levels."""
+    from pih.analysis.run_summary import run_seconds
     from pih.publishing.published import expected_runs, runs_by_point, sweep_keys_of
     from pih.study.config import load_config
     from pih.study.points import is_method_key
@@ -141,7 +147,16 @@ def suite(studies: Iterable[Study], root: Path) -> list[Item]:
             first = _first_inserted_mean(path)
             budget = planner["iterations"]
             iterations = min(budget, first + 1) if first else min(budget, 2)
-            item = Item(name, study.config_files, point, iterations, redeployment, path.parent.name)
+            estimate = run_seconds(path) * iterations / budget
+            item = Item(
+                name,
+                study.config_files,
+                point,
+                iterations,
+                redeployment,
+                path.parent.name,
+                estimate,
+            )
             candidates.setdefault(canonical_json(sections), []).append(
                 (first or budget + 1, key, item)
             )
@@ -187,11 +202,42 @@ def tree_hash(tree: Path) -> str:
     return digest
 
 
+_CHILDREN: set[subprocess.Popen] = set()
+_CHILDREN_LOCK = threading.Lock()
+
+
 def _child(
     command: list[str], cwd: Path, env: Mapping[str, str] | None = None, text: bool = True
 ) -> subprocess.CompletedProcess:
-    """``command`` run to its end in ``cwd``, its output captured."""
-    return subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=text, check=False)
+    """``command`` run to its end in ``cwd``, its output captured, in a session of its own so
+    that :func:`end_children` ends it with every job it started."""
+    with subprocess.Popen(
+        command,
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=text,
+        start_new_session=True,
+    ) as process:
+        with _CHILDREN_LOCK:
+            _CHILDREN.add(process)
+        try:
+            out, err = process.communicate()
+        finally:
+            with _CHILDREN_LOCK:
+                _CHILDREN.discard(process)
+    return subprocess.CompletedProcess(command, process.returncode, out, err)
+
+
+def end_children(number: int = signal.SIGTERM) -> None:
+    """Send ``number`` to every child still running (a version's ``snakemake``) and to the jobs
+    it started: its whole process group."""
+    with _CHILDREN_LOCK:
+        live = list(_CHILDREN)
+    for process in live:
+        with suppress(ProcessLookupError, PermissionError):
+            os.killpg(process.pid, number)
 
 
 def _environment(tree: Path) -> dict[str, str]:
@@ -358,12 +404,20 @@ def verify_hash(
     today: str,
     scratch: Path,
     progress: Callable[[str], None] = print,
+    stop_at_difference: bool = False,
 ) -> Verification:
     """Run ``items`` through the ``old`` code (its commit and extracted tree, hash ``made_at``)
     and through the repository's tree (today's code, hash ``today``), side by side, in
-    ``scratch``, and compare every output."""
+    ``scratch``, and compare every output; with ``stop_at_difference``, no item after the first
+    that differs."""
     result = Verification(made_at, today, old[0])
-    progress(f"rollout hash {made_at[:12]} ({old[0]}) -> {today[:12]} (today): {len(items)} items")
+    known = [item.estimate_s for item in items if math.isfinite(item.estimate_s)]
+    # Each item's two versions run side by side, one per core; a process start each.
+    minutes = (sum(known) + 30 * len(items)) / 60 if known else math.nan
+    about = f", about {minutes:.0f} min from the recorded run times" if known else ""
+    progress(
+        f"rollout hash {made_at[:12]} ({old[0]}) -> {today[:12]} (today): {len(items)} items{about}"
+    )
     versions = {"old": (old[1], made_at), "new": (repository, today)}
     with concurrent.futures.ThreadPoolExecutor(2) as pool:
         for number, item in enumerate(items, 1):
@@ -390,6 +444,9 @@ def verify_hash(
                 f"[{number}/{len(items)}] {item.name} ({item.run}, {item.iterations} "
                 f"iterations): {verdict}"
             )
+            if differences and stop_at_difference:
+                progress(f"stopped at the first difference: {len(items) - number} items not run")
+                break
     return result
 
 
@@ -426,6 +483,7 @@ def verify(
     record: Path,
     progress: Callable[[str], None] = print,
     suite_of: Sequence[Study] | None = None,
+    stop_at_difference: bool = False,
 ) -> list[Verification]:
     """Verify today's code (the tree at ``repository``) against the code that made the runs of
     ``studies`` that are not current (:func:`pih.publishing.equivalence.current_hashes`), once per
@@ -433,7 +491,8 @@ def verify(
     (default ``studies``; the command line: every published study, since a row makes every
     run at its hash current). When every item of every verification is identical, add one row
     per hash to ``record``; nothing otherwise. Bad input (no runs, a damaged file or record, an
-    empty suite, a hash no commit gives) is refused in one line before any item runs."""
+    empty suite, a hash no commit gives) is refused in one line before any item runs; with
+    ``stop_at_difference``, each verification stops at its first differing item."""
     from pih.publishing.equivalence import add_row, chained, current_hashes, read_record
 
     made = [read_provenance_of(path) for path in run_files(studies, repository)]
@@ -466,7 +525,9 @@ def verify(
             for head, commits in candidates.items()
         }
         verifications = [
-            verify_hash(head, code[head], items, repository, today, scratch, progress)
+            verify_hash(
+                head, code[head], items, repository, today, scratch, progress, stop_at_difference
+            )
             for head in candidates
         ]
     if not any(v.differences for v in verifications):
