@@ -1,5 +1,7 @@
 """results/summary.md: the paper's numbers beside ours, read from the workflow's tables."""
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 
@@ -10,6 +12,7 @@ from pih.reporting.summary import (
     planning_rows,
     relative_error_table,
     step_pairs,
+    study_header,
     summary_markdown,
 )
 
@@ -384,3 +387,32 @@ def test_the_model_error_table_splits_by_a_swept_scene_key_with_pairs_per_level(
     pairs = "vs one-level: better / worse / tied"
     assert table.loc[("0.3", ours), pairs] == "2 / 0 / 0"
     assert table.loc[("0.6", ours), pairs] == "0 / 2 / 0"
+
+
+def test_the_reports_pages_render_the_summarys_markdown():
+    """The report shows results/summary.md as HTML (workflow/report/report_tables.py): its
+    block quote (the note that a study is not the default one) renders as one, not as a literal
+    "> **...**", and a wide table sits in a box that scrolls sideways."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "workflow" / "report" / "report_tables.py"
+    spec = importlib.util.spec_from_file_location("report_tables", path)
+    tables = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tables)
+    header = study_header(
+        {
+            "config_files": ["config/config.yaml", "config/smoke.yaml"],
+            "default": False,
+            "iterations": 3,
+            "rollouts_per_iteration": 4,
+            "planning_runs": 6,
+            "deploy_trials": 2,
+        },
+        "abc123",
+    )
+    wide = "| " + " | ".join(f"column {k}" for k in range(30)) + " |"
+    rule = "|" + "---|" * 30
+    html = tables.page("summary", "", f"# pih\n\n{header}\n\n{wide}\n{rule}\n")
+    assert "<blockquote><p><strong>Not the default study</strong>" in html
+    assert "&gt;" not in html
+    assert '<div class="scroll"><table>' in html and "overflow-x: auto" in html

@@ -4,7 +4,7 @@ caption (the report's ``.rst`` beside this script), then the markdown as HTML. T
 closing provenance comment is kept, so each page carries the record of the table it shows.
 
 Markdown subset of the study's tables and summary: ``#`` headings, paragraphs, ``-`` lists,
-pipe tables, inline code, bold, links (shown as their text and target: inside the report, a
+``>`` block quotes, pipe tables, inline code, bold, links (shown as their text and target: inside the report, a
 relative link leads nowhere)."""
 
 import html
@@ -26,6 +26,8 @@ th { background: #e2e8f0; position: sticky; top: 0; white-space: normal; vertica
 td.num { text-align: right; font-variant-numeric: tabular-nums; }
 tr:nth-child(even) td { background: #f8fafc; }
 code { background: #f1f5f9; padding: 0 .2em; border-radius: 3px; }
+blockquote { margin: .8em 0; padding: .4em .9em; border-left: 3px solid #f59e0b;
+  background: #fffbeb; max-width: 60em; }
 """
 NUMBER = re.compile(r"^[-+−]?(\d+(\.\d*)?|\.\d+)([eE][-+]?\d+)?( ?%)?$")
 
@@ -86,6 +88,12 @@ def markdown_html(text: str) -> str:
             while k < len(lines) and lines[k].startswith("|"):
                 k += 1
             blocks.append(_table(lines[start:k]))
+        elif line.startswith(">"):
+            quoted = []
+            while k < len(lines) and lines[k].startswith(">"):
+                quoted.append(lines[k][1:].strip())
+                k += 1
+            blocks.append(f"<blockquote><p>{inline(' '.join(quoted))}</p></blockquote>")
         elif line.startswith("- "):
             items = []
             while k < len(lines) and lines[k].strip() and not lines[k].startswith("|"):
@@ -98,7 +106,9 @@ def markdown_html(text: str) -> str:
         else:
             start = k
             while (
-                k < len(lines) and lines[k].strip() and not lines[k].startswith(("|", "#", "<!--"))
+                k < len(lines)
+                and lines[k].strip()
+                and not lines[k].startswith(("|", "#", "<!--", ">"))
             ):
                 k += 1
             blocks.append(f"<p>{inline(' '.join(x.strip() for x in lines[start:k]))}</p>")
