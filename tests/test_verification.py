@@ -513,3 +513,50 @@ def test_a_validation_table_older_than_its_hash_is_judged_by_the_modules_its_com
     before = validation_hash_at("0b3a0c2")
     assert before is not None and before != validation_code_hash()
     assert validation_hash_at("f" * 40) is None
+
+
+def test_verify_can_stop_at_the_first_difference(tmp_path, monkeypatch):
+    """``--stop-at-difference``: no item runs after the first whose outputs differ, and the
+    first line says how many items there are and roughly how long they take."""
+    from pih.publishing import verification
+    from pih.publishing.verification import Item, verify_hash
+
+    items = [
+        Item(f"item {k}", ("config/config.yaml",), {"planner.seed": k}, 3, "", f"run{k}", 60.0)
+        for k in range(4)
+    ]
+    ran = []
+
+    def run_item(tree, item, workdir):
+        ran.append((tree.name, item.name))
+        return {"rollouts.parquet": Path(tree.name) / item.name}
+
+    hashes = {"old": "a" * 64, "new": "b" * 64}
+    monkeypatch.setattr(verification, "run_item", run_item)
+    monkeypatch.setattr(
+        verification,
+        "read_provenance_of",
+        lambda path: {"rollout_code_sha256": hashes[str(path).split("/")[0]]},
+    )
+    monkeypatch.setattr(verification, "_config_differences", lambda old, new: [])
+    differs = {"item 1"}
+    monkeypatch.setattr(
+        verification,
+        "compare_outputs",
+        lambda old, new: (
+            "digest",
+            ["rollouts.parquet: cost"] if new["rollouts.parquet"].name in differs else [],
+        ),
+    )
+    lines: list[str] = []
+    old, new = tmp_path / "old", tmp_path / "new"
+    result = verify_hash(
+        hashes["old"], ("abc", old), items, new, hashes["new"], tmp_path, lines.append, True
+    )
+    assert [name for _, name in ran] == ["item 0", "item 0", "item 1", "item 1"]
+    assert result.differences == ["item 1: rollouts.parquet: cost"]
+    assert lines[0].endswith(": 4 items, about 6 min from the recorded run times")
+    assert lines[-1] == "stopped at the first difference: 2 items not run"
+    ran.clear()
+    verify_hash(hashes["old"], ("abc", old), items, new, hashes["new"], tmp_path, lines.append)
+    assert len(ran) == 8  # without the flag, every item
