@@ -59,6 +59,17 @@ def test_stale_published_runs_are_named(tmp_path):
         'sweep point {"s":2} is not published',
         "s~1 is not a sweep point of the config",
     ]
+    # Made under another numpy or cma than the installed (issue 81): the package and both
+    # versions, one line each.
+    path = tmp_path / "planning" / "s~0" / "rollouts.parquet"
+    provenance = record("plan", point={"s": 0}, config=expected[point_key({"s": 0})])
+    provenance["packages"] |= {"numpy": "2.4.5", "cma": "4.4.0"}
+    write_table(rows, path, provenance, {"phase": ("", "phase"), "success": ("1", "inserted")})
+    numpy, cma = (importlib.metadata.version(p) for p in ("numpy", "cma"))
+    assert stale_reasons(tmp_path, expected) == [
+        f"planning/s~0/rollouts.parquet: made with numpy 2.4.5, {numpy} installed",
+        f"planning/s~0/rollouts.parquet: made with cma 4.4.0, {cma} installed",
+    ]
 
 
 def _sections(time_step_s: float, seed: int) -> dict[str, dict]:

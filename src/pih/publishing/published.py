@@ -341,17 +341,31 @@ def validation_hash_at(commit: str) -> str | None:
         return None
 
 
+ROLLOUT_LIBRARIES = ("numpy", "cma")
+"""Libraries a rollout draws or optimizes with, beside Drake: numpy's Generator streams are not
+promised stable across its feature releases, and CMA-ES is cma's. A run made under other
+versions than the installed ones is not current (issue 81); they stay out of the rollout hash,
+which ``pih verify`` recomputes for old code in today's environment."""
+
+
 def _made_elsewhere(
     made: Mapping[str, object], name: object, current: Collection[str] | None, drake: str
 ) -> list[str]:
     """Why a file's provenance ``made`` is not this repository's: rollout code not ``current``
-    (None: not checked), another Drake."""
+    (None: not checked), another Drake, another version of a :data:`ROLLOUT_LIBRARIES` library
+    than the installed one."""
     reasons = []
     if current is not None and made.get("rollout_code_sha256") not in current:
         reasons.append(f"{name}: made by other rollout code")
-    made_by = (made.get("packages") or {}).get("drake")
-    if made_by != drake:
-        reasons.append(f"{name}: made by Drake {made_by}, not {drake}")
+    packages = made.get("packages") or {}
+    if packages.get("drake") != drake:
+        reasons.append(f"{name}: made by Drake {packages.get('drake')}, not {drake}")
+    for library in ROLLOUT_LIBRARIES:
+        installed = importlib.metadata.version(library)
+        if packages.get(library) != installed:
+            reasons.append(
+                f"{name}: made with {library} {packages.get(library)}, {installed} installed"
+            )
     return reasons
 
 
