@@ -7,7 +7,8 @@ from pathlib import Path
 import pandas as pd
 
 from pih.__main__ import main
-from pih.publishing.compare import compare, run_directories
+from pih.publishing.compare import compare
+from pih.publishing.scope import run_directories
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -221,9 +222,9 @@ def test_a_tree_of_an_older_version_reproduces_on_what_both_record(tmp_path, cap
     main(["compare", str(old), str(new)])
     out = capsys.readouterr().out.splitlines()
     # Only the run whose shared columns differ (success at -0.03) is named, by its new path.
-    assert [line for line in out if not line.startswith(("data:", "conclusions:"))] == [
-        "planning/start~-0.03_seed~0/rollouts.parquet: data: one table -> another"
-    ]
+    assert [
+        line for line in out if not line.startswith(("data:", "conclusions:", "pih compare:"))
+    ] == ["planning/start~-0.03_seed~0/rollouts.parquet: data: one table -> another"]
 
 
 def test_a_tree_that_is_not_one_is_one_line(tmp_path, capsys):
@@ -481,7 +482,7 @@ def test_a_fresh_contact_model_run_is_pooled_with_the_sim_to_real_study(tmp_path
     assert not all(c.holds for c in conclusion_checks(CONTACT_MODEL, new))  # read as it is
 
     assert main(["compare", str(CONTACT_MODEL), str(new)]) == 0
-    out = capsys.readouterr().out.splitlines()
+    out = capsys.readouterr().out.splitlines()[1:]
     assert out[0] == (
         f"scope: {new} is a run of the contact-model study: the tables remade here pool the "
         "sim-to-real study's runs (published/sim_to_real), as the study's do"

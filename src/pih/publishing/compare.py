@@ -28,10 +28,8 @@ study's are (:func:`pooling_study`). Runs are matched over both trees' sweep key
 from __future__ import annotations
 
 import math
-import os
-import shutil
 import tempfile
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -44,12 +42,18 @@ from pih.analysis.training_model import REAL_SCENE
 from pih.publishing.equivalence import REPOSITORY
 from pih.publishing.published import (
     PUBLISHED_STUDIES,
-    PublishedStudy,
-    expected_runs,
     pooled_planning,
-    remake_tables,
-    runs_by_point,
-    sweep_keys_of,
+)
+from pih.publishing.scope import (
+    SUCCESS,
+    pooling_study,
+    pools_its_runs,
+    restricted,
+    run_directories,
+    run_files,
+    runs_at_points,
+    shared_points,
+    swept_keys,
 )
 from pih.records.outputs import read_provenance
 from pih.records.provenance import input_sha256
@@ -59,7 +63,6 @@ R_TOLERANCE = 0.02
 pooled r(F_x) and r(F_z) differ by 0.09, and the step and contact settings move r by more."""
 
 ROBUSTNESS = "planning/summary/robustness.parquet"
-SUCCESS = "planning/summary/success.parquet"
 PAIRED = "planning/summary/paired.parquet"
 TIME_STEP = "planning/summary/time_step.parquet"
 TRAINING_MODEL = "planning/summary/training_model.parquet"
@@ -297,113 +300,6 @@ def _presence(missing: bool) -> str:
     return "missing" if missing else "present"
 
 
-def swept_keys(tree: Path) -> set[str]:
-    """The sweep keys of a tree's planning runs (their recorded sweep points, in today's keys)."""
-    from pih.study.points import upgraded_point
-
-    return {
-        key
-        for path in (tree / "planning").glob("*/rollouts.parquet")
-        for key in upgraded_point(read_provenance(path)["sweep_point"])
-    }
-
-
-def run_directories(tree: Path, keys: Iterable[str] = ()) -> dict[str, Path]:
-    """A tree's planning run directories by their sweep point over ``keys`` too
-    (:func:`runs_by_point`, in today's keys: directory names changed with 0.4.0), so that a
-    default run, which fixes ``planner.simulated_hole``, meets its copy in a study that sweeps
-    it."""
-    return {
-        key: rollouts.parent for key, rollouts in runs_by_point(tree / "planning", keys).items()
-    }
-
-
-def run_files(tree: Path, keys: Iterable[str] = ()) -> dict[str, Path]:
-    """The planning runs' data files of a tree, by their run's sweep point
-    (:func:`run_directories`) and file name."""
-    return {
-        f"{point} {data.name}": data
-        for point, directory in run_directories(tree, keys).items()
-        for data in [directory / "rollouts.parquet", *sorted(directory.glob("redeploy_*.parquet"))]
-    }
-
-
-def pools_its_runs(tree: Path) -> bool:
-    """Whether a tree's own tables pool exactly the planning runs it holds (a whole study, not
-    one with runs lost): its success table counts as many runs as it has run directories."""
-    success = tree / SUCCESS
-    if not success.is_file():
-        return False
-    table = pd.read_parquet(success)
-    return int(table.loc[table["dimension"] == "all", "runs"].sum()) == len(run_directories(tree))
-
-
-def runs_at_points(
-    old: Path, new: Path, scratch: Path, keys: Iterable[str] = (), pooled: Sequence[Path] = ()
-) -> Path | None:
-    """When NEW is a whole study (:func:`pools_its_runs`) and OLD holds every planning run NEW
-    does and more, or as many without tables of its own (a study published in parts, not yet
-    complete): a copy under ``scratch`` of OLD restricted to NEW's sweep points (its other
-    outputs whole), with the planning tables remade from those runs, pooled with those under
-    ``pooled``, as ``pih aggregate`` makes them; None otherwise."""
-    before, after = run_directories(old, keys), run_directories(new, keys)
-    bigger = set(after) < set(before) or not (old / SUCCESS).is_file()
-    if not after or not set(after) <= set(before) or not bigger or not pools_its_runs(new):
-        return None
-    return _restricted(old, before, set(after), scratch / "old", pooled)
-
-
-def shared_points(
-    old: Path, new: Path, scratch: Path, keys: Iterable[str] = (), pooled: Sequence[Path] = ()
-) -> tuple[Path, Path] | None:
-    """When NEW is a whole study (:func:`pools_its_runs`) and each tree holds planning runs the
-    other lacks: copies under ``scratch`` of both, restricted to the sweep points they share
-    (:func:`_restricted`, their tables pooled with the runs under ``pooled``); None otherwise
-    (no shared point, or one tree holds all the other's)."""
-    before, after = run_directories(old, keys), run_directories(new, keys)
-    shared = set(before) & set(after)
-    if not shared or shared in (set(before), set(after)) or not pools_its_runs(new):
-        return None
-    return (
-        _restricted(old, before, shared, scratch / "old", pooled),
-        _restricted(new, after, shared, scratch / "new", pooled),
-    )
-
-
-def _restricted(
-    tree: Path, runs: Mapping[str, Path], points: set[str], copy: Path, pooled: Sequence[Path] = ()
-) -> Path:
-    """``copy``: ``tree`` with only the planning ``runs`` at ``points`` (its other outputs
-    whole) and the planning tables remade from them, pooled with the runs under ``pooled``, as
-    ``pih aggregate`` makes them. Its files are links to ``tree``'s: a fresh run's directories
-    hold its recordings and best paths too."""
-    copy.mkdir(parents=True)
-    for entry in tree.iterdir():
-        if entry.name != "planning" and entry.is_dir():
-            (copy / entry.name).symlink_to(entry.resolve(), target_is_directory=True)
-    for key in sorted(points):
-        target = copy / "planning" / runs[key].name
-        shutil.copytree(runs[key].resolve(), target, copy_function=os.symlink)
-    remake_tables(copy / "planning", pooled)
-    return copy
-
-
-def pooling_study(tree: Path, root: Path = REPOSITORY) -> PublishedStudy | None:
-    """The published study that ``tree``'s planning runs are a run of (each a sweep point of
-    its config files under ``root``), when its tables pool other published studies' runs
-    (:attr:`~pih.publishing.published.PublishedStudy.pools`): a fresh contact-model run, whose
-    twins trained on the real scene's model are the sim-to-real study's runs. None otherwise."""
-    for study in PUBLISHED_STUDIES.values():
-        config_files = [root / name for name in study.config_files]
-        if not study.pools or not all(path.is_file() for path in config_files):
-            continue
-        expected = expected_runs(tuple(map(str, config_files)))
-        runs = runs_by_point(tree / "planning", sweep_keys_of(expected))
-        if runs and set(runs) <= set(expected):
-            return study
-    return None
-
-
 def _same_data(a: Path, b: Path) -> bool:
     """Whether two run files hold the same table, or agree in every column both have (a newer
     version adds columns, e.g. ``simulated_hole_*`` in 0.4.0)."""
@@ -596,7 +492,7 @@ def compare(
             old, new = shared
         if study is not None and shared is None:
             runs = run_directories(new, keys)
-            new = _restricted(new, runs, set(runs), Path(scratch) / "new", pooled)
+            new = restricted(new, runs, set(runs), Path(scratch) / "new", pooled)
         scope = "; ".join(scopes)
         # A study read at some points or pooled is compared on what it carries (the paper-scale
         # and contact-model studies publish planning runs only, not a validation of their own).
