@@ -1384,3 +1384,77 @@ def test_the_ladder_prose_quotes_the_paper_scale_ladder():
         f"apart without either being better ({rules['better']:.0f} better, {rules['worse']:.0f} worse; "
         f"{signed(rules['mean_difference'])}, {interval})" in readme
     )
+
+
+def test_the_ladder_prose_quotes_the_stable_goals_ladder():
+    """README and docs/planner.md on the stable goals off the ceiling (issue 80): ours against
+    each stable goal over all rungs, the ties there against those from starts 1 mm off, the moved
+    hole where the difference sits, and both against one-level."""
+    summary = ROOT / STABLE.directory / "planning" / "summary"
+    ladder = pd.read_parquet(summary / "ladder.parquet").set_index(["rung", "method"])
+    pairs = pd.read_parquet(summary / "ladder_pairs.parquet").set_index(
+        ["rung", "method", "versus"]
+    )
+    page = " ".join((ROOT / "docs" / "planner.md").read_text().split())
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    ours, one = "bilevel/deepest_explored", "one_level"
+    mean, calibrated = "one_level/mean_sensed_hole", "one_level/calibrated_mean_sensed_hole"
+
+    def signed(value: float) -> str:
+        return f"{value:.2f}".replace("-", "−")
+
+    def interval(row: pd.Series) -> str:
+        return f"{signed(row['difference_ci_low'])} to {signed(row['difference_ci_high'])}"
+
+    score, start = "all rungs", "starts 1 mm off"
+    rungs = int(ladder.loc[(score, ours), "rungs"])
+    off = {goal: pairs.loc[(score, ours, goal)] for goal in (mean, calibrated)}
+    at = {goal: pairs.loc[(start, ours, goal)] for goal in (mean, calibrated)}
+    # Out of the ceiling: fewer than half tied, where from starts 1 mm off most were.
+    assert all(off[g]["tied"] < off[g]["pairs"] / 2 for g in off)
+    assert at[calibrated]["tied_at_ceiling"] > at[calibrated]["pairs"] / 2
+    assert all(off[g]["mean_difference"] < 0 and off[g]["sign_test_p"] >= 0.05 for g in off)
+    assert (
+        f"ours tied the stable goals at 10 of 10 at {at[mean]['tied_at_ceiling']:.0f} "
+        f"(`mean_sensed_hole`) and {at[calibrated]['tied_at_ceiling']:.0f} (calibrated) of the 11 "
+        f"starts; over the ladder's {rungs} rungs at {off[mean]['tied_at_ceiling']:.0f} and "
+        f"{off[calibrated]['tied_at_ceiling']:.0f}" in page
+    )
+    assert (
+        f"{signed(off[mean]['mean_difference'])} (95 % interval {interval(off[mean])}) against "
+        f"`mean_sensed_hole`, {off[mean]['better']:.0f} starts better and "
+        f"{off[mean]['worse']:.0f} worse (p = {off[mean]['sign_test_p']:.3g}), and "
+        f"{signed(off[calibrated]['mean_difference'])} ({interval(off[calibrated])}) against the "
+        f"calibrated goal, {off[calibrated]['better']:.0f} and {off[calibrated]['worse']:.0f} (p = "
+        f"{off[calibrated]['sign_test_p']:.2g}), where the pairs could detect "
+        f"{off[mean]['detectable_difference']:.2f} and "
+        f"{off[calibrated]['detectable_difference']:.2f}" in page
+    )
+
+    def rate(rung: str, method: str) -> str:
+        return f"{ladder.loc[(rung, method), 'deploy_success_rate']:.2f}"
+
+    assert (
+        f"1 mm away from the starts, `mean_sensed_hole`, whose goal lies about 5 mm past the hole, "
+        f"inserted {rate('hole +1 mm', mean)} and ours {rate('hole +1 mm', ours)}, and 1 mm toward "
+        f"them the calibrated goal {rate('hole -1 mm', calibrated)} and ours "
+        f"{rate('hole -1 mm', ours)}" in page
+    )
+    beats = [pairs.loc[(score, one, goal)] for goal in (calibrated, mean)]
+    assert all(b["worse"] == b["pairs"] == 11 for b in beats)
+    assert f"over all rungs at all 11 starts (p = {beats[0]['sign_test_p']:.3g})" in page
+    assert (
+        f"ours at most +{off[mean]['difference_ci_high']:.2f} and "
+        f"+{off[calibrated]['difference_ci_high']:.2f} better, the intervals' upper ends" in page
+    )
+    assert (
+        f"ours against them: {off[mean]['tied_at_ceiling']:.0f} and "
+        f"{off[calibrated]['tied_at_ceiling']:.0f} of 11 pairs tied at 10 of 10, from "
+        f"{at[mean]['tied_at_ceiling']:.0f} and {at[calibrated]['tied_at_ceiling']:.0f}) and neither "
+        f"is beaten by ours: over all rungs {signed(off[mean]['mean_difference'])} "
+        f"({interval(off[mean])}) against `mean_sensed_hole`, "
+        f"{signed(off[calibrated]['mean_difference'])} ({interval(off[calibrated])}) against the "
+        f"calibrated goal (p = {off[mean]['sign_test_p']:.3g} and "
+        f"{off[calibrated]['sign_test_p']:.2g}); with the hole 1 mm further, `mean_sensed_hole` "
+        f"inserts {rate('hole +1 mm', mean)}, ours {rate('hole +1 mm', ours)}" in readme
+    )
