@@ -1294,15 +1294,20 @@ def test_no_page_claims_equivalence_without_a_margin():
         assert claims == [], f"{page} claims equivalence: {claims}"
 
 
+def _ladder_tables(study) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """A published study's ladder table by (rung, method) and its pairs by (rung, method,
+    versus)."""
+    summary = ROOT / study.directory / "planning" / "summary"
+    ladder = pd.read_parquet(summary / "ladder.parquet").set_index(["rung", "method"])
+    pairs = pd.read_parquet(summary / "ladder_pairs.parquet")
+    return ladder, pairs.set_index(["rung", "method", "versus"])
+
+
 def test_the_ladder_prose_quotes_the_paper_scale_ladder():
     """docs/planner.md's account of the paper-scale study on the deployment ladder (issue 80)
     quotes its ladder tables: the rules against each other and against one-level over all rungs,
     the moved hole where a fixed goal stops beating one-level, and the offset starts' rung."""
-    summary = ROOT / PAPER.directory / "planning" / "summary"
-    ladder = pd.read_parquet(summary / "ladder.parquet").set_index(["rung", "method"])
-    pairs = pd.read_parquet(summary / "ladder_pairs.parquet").set_index(
-        ["rung", "method", "versus"]
-    )
+    ladder, pairs = _ladder_tables(PAPER)
     page = " ".join((ROOT / "docs" / "planner.md").read_text().split())
     readme = " ".join((ROOT / "README.md").read_text().split())
     ours, theirs, one = "bilevel/deepest_explored", "bilevel/explored_argmin", "one_level"
@@ -1390,11 +1395,7 @@ def test_the_ladder_prose_quotes_the_stable_goals_ladder():
     """README and docs/planner.md on the stable goals off the ceiling (issue 80): ours against
     each stable goal over all rungs, the ties there against those from starts 1 mm off, the moved
     hole where the difference sits, and both against one-level."""
-    summary = ROOT / STABLE.directory / "planning" / "summary"
-    ladder = pd.read_parquet(summary / "ladder.parquet").set_index(["rung", "method"])
-    pairs = pd.read_parquet(summary / "ladder_pairs.parquet").set_index(
-        ["rung", "method", "versus"]
-    )
+    ladder, pairs = _ladder_tables(STABLE)
     page = " ".join((ROOT / "docs" / "planner.md").read_text().split())
     readme = " ".join((ROOT / "README.md").read_text().split())
     ours, one = "bilevel/deepest_explored", "one_level"
