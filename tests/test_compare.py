@@ -5,6 +5,7 @@ import shutil
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 from pih.__main__ import main
 from pih.publishing.compare import compare
@@ -441,6 +442,7 @@ def test_the_published_contact_model_study_reproduces_its_training_model_conclus
     assert sum(c.what.startswith("sign (pairs better/worse) -") for c in trained) == 2
 
 
+@pytest.mark.slow  # remakes a pooled study's tables from ~100 runs: 10-35 s
 def test_a_point_trained_run_that_no_longer_deploys_changes_a_training_model_conclusion(
     tmp_path, capsys
 ):
@@ -467,6 +469,7 @@ def test_a_point_trained_run_that_no_longer_deploys_changes_a_training_model_con
     assert "NOT reproduced" in out[-1]
 
 
+@pytest.mark.slow  # remakes a pooled study's tables from ~100 runs: 10-35 s
 def test_a_fresh_contact_model_run_is_pooled_with_the_sim_to_real_study(tmp_path, capsys):
     """A fresh contact-model run holds no twins trained on the real scene's model: its own
     tables pair nothing. Compare remakes them pooled with the published sim-to-real study's
@@ -526,6 +529,7 @@ def test_a_training_model_without_twins_keeps_no_sign(tmp_path):
     assert failed == ["sign (pairs better/worse) 0 (0/0) -> no pairs"] * 2
 
 
+@pytest.mark.slow  # remakes two studies' tables from published runs: 10-15 s
 def test_a_fresh_run_is_judged_only_on_the_redeployments_its_config_asked_for(tmp_path):
     """The paper-scale study, redeployed under model errors and on the ladder, against a fresh
     default-like run at one of its points that made none of them: OLD's rows and files of those
