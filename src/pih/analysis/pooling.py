@@ -185,8 +185,10 @@ def pool(
     what it was verified equivalent to), and replay the files beside their run."""
     # In path order, so that which copy heads a training does not depend on the arguments' order.
     records = sorted((RunRecord.read(path) for path in run_files), key=lambda run: str(run.path))
-    swept = dict.fromkeys(k for run in records for k in upgraded_point(run.record["sweep_point"]))
-    keys = [k for k in swept if k != DEPLOY_STD_KEY]
+    swept = {k for run in records for k in upgraded_point(run.record["sweep_point"])}
+    # Sorted: the tables' columns and joint level labels must not depend on where the pooled
+    # trees lie (pih compare pools a fresh run in /tmp with published studies).
+    keys = sorted(k for k in swept if k != DEPLOY_STD_KEY)
     trainings: dict[str, list[RunRecord]] = {}
     for run in records:
         trainings.setdefault(run.training, []).append(run)
