@@ -234,6 +234,7 @@ def test_a_tree_that_is_not_one_is_one_line(tmp_path, capsys):
     assert len(err) == 1 and "not a results tree" in err[0]
 
 
+@pytest.mark.slow  # remakes studies' tables from published runs: ~10 s
 def test_a_bigger_old_study_is_read_at_the_new_ones_sweep_points(tmp_path, capsys):
     """A fresh default run against the sim-to-real study, which holds its runs and more: OLD is
     read at NEW's sweep points, its tables remade from those runs, and reproduces bit for bit
@@ -268,6 +269,7 @@ def test_a_bigger_old_study_is_read_at_the_new_ones_sweep_points(tmp_path, capsy
     assert lost.scope == "" and not lost.conclusions_hold
 
 
+@pytest.mark.slow  # remakes studies' tables from published runs: ~10 s
 def test_two_studies_that_each_hold_runs_the_other_lacks_are_read_at_their_shared_points(
     tmp_path,
 ):
